@@ -220,9 +220,10 @@ COVERAGE = {
         OWN: {"use_denoising denoising_pass_follow_reflections* denoising_pass_use_albedo_roughness_weighting*":
               "use_denoising: Primer's Denoise, for every view layer"},
         READ: {"use_pass_shadow_catcher": "export.shadow_catcher_pass (the Shadow Catcher pass; Combined as the "
-                                          "catchers' matte)"},
+                                          "catchers' matte)",
+               "use_pass_volume_direct use_pass_volume_indirect": "engine.py (the Volume light passes)"},
         REPORTED: {"denoising_store_passes pass_debug_sample_count pass_render_time* "
-                   "use_pass_volume_direct use_pass_volume_indirect use_pass_volume_majorant* use_pass_volume_scatter* "
+                   "use_pass_volume_majorant* use_pass_volume_scatter* "
                    "use_pass_volume_transmit*": "unmodelled.view_layer_notes"},
     },
     "LayerCollection": {

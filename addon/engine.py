@@ -41,7 +41,7 @@ DENOISING_PASSES = {
 }
 # Cycles' Shadow Catcher pass (View Layer > Passes > Light > Shadow Catcher, core/integrators/catcher.py).
 SHADOW_CATCHER_PASS = "Shadow Catcher"
-# Cycles' first-hit passes (core/integrators/passes.py) and light passes: core buffer -> (view layer toggle,
+# Cycles' first-hit passes (core/integrators/passes.py) and light passes: core buffer -> (view layer toggle (`toggled`),
 # Blender 5 name, the name before Blender 5, channels, chan ids, type); written with the view layer's toggle, as
 # Cycles does.
 CYCLES_PASSES = {
@@ -66,7 +66,17 @@ CYCLES_PASSES = {
     "transmission_direct": ("use_pass_transmission_direct", "Transmission Direct", "TransDir", 3, "RGB", "COLOR"),
     "transmission_indirect": ("use_pass_transmission_indirect", "Transmission Indirect", "TransInd", 3, "RGB",
                               "COLOR"),
+    # (the volume ones, undivided as in Cycles, are toggled in Cycles' own settings of the view layer)
+    "volume_direct": ("cycles.use_pass_volume_direct", "Volume Direct", "VolumeDir", 3, "RGB", "COLOR"),
+    "volume_indirect": ("cycles.use_pass_volume_indirect", "Volume Indirect", "VolumeInd", 3, "RGB", "COLOR"),
 }
+
+
+def toggled(view_layer, toggle: str) -> bool:
+    """Whether the pass toggle `toggle` (a property of the view layer, or "cycles.<property>" of its Cycles
+    settings) is on in `view_layer`."""
+    owner, _, name = toggle.rpartition(".")
+    return bool(getattr(getattr(view_layer, owner, None) if owner else view_layer, name, False))
 
 
 def cycles_pass_name(buffer: str, version: tuple = None) -> str:
@@ -95,7 +105,7 @@ def requested_passes(view_layer) -> tuple:
     toggles = {"z_depth": "use_pass_z", "average_normal": "use_pass_normal"}
     toggles.update({buffer: toggle for buffer, (toggle, *_) in CYCLES_PASSES.items()})
     toggles.update({buffer: toggle for buffer, (toggle, _) in CRYPTO_PASSES.items()})
-    return tuple(buffer for buffer, toggle in toggles.items() if getattr(view_layer, toggle, False))
+    return tuple(buffer for buffer, toggle in toggles.items() if toggled(view_layer, toggle))
 
 
 def crypto_pass_names(buffer: str, depth: int) -> list:
@@ -523,7 +533,7 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
         if renderlayer.use_pass_normal:
             self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
         for buffer, (toggle, _, _, channels, chan_id, kind) in CYCLES_PASSES.items():
-            if getattr(renderlayer, toggle, False):
+            if toggled(renderlayer, toggle):
                 self.register_pass(scene, renderlayer, cycles_pass_name(buffer), channels, chan_id, kind)
         for name, kind in export.shader_aovs(renderlayer):     # (Cycles' names and channels: the AOV's own name)
             self.register_pass(scene, renderlayer, name, *AOV_PASS_KINDS[kind])

@@ -16,8 +16,7 @@ UNWRITTEN_PASSES = {"use_pass_shadow": "Shadow (EEVEE)",
                     "use_pass_subsurface_indirect": "Subsurface Indirect",
                     "use_pass_subsurface_color": "Subsurface Color"}
 # Cycles' own passes (View Layer > Passes, view_layer.cycles) that Primer does not write: property -> the pass's name.
-UNWRITTEN_CYCLES_PASSES = {"use_pass_volume_direct": "Volume Direct",
-                           "use_pass_volume_indirect": "Volume Indirect", "use_pass_volume_majorant": "Volume Majorant",
+UNWRITTEN_CYCLES_PASSES = {"use_pass_volume_majorant": "Volume Majorant",
                            "use_pass_volume_scatter": "Volume Scatter", "use_pass_volume_transmit": "Volume Transmit",
                            "pass_debug_sample_count": "Debug Sample Count", "pass_render_time": "Render Time"}
 

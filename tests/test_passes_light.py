@@ -1,5 +1,5 @@
 """Light passes in core (core/integrators/lightpasses.py, lightpasses.c), without Blender: Diffuse/Glossy/Transmission
-Direct and Indirect on scenes whose answers are known, Cycles' sum rule, Combined = sum of (light pass x colour
+Direct and Indirect (the Volume ones: tests/test_passes_volume.py) on scenes whose answers are known, Cycles' sum rule, Combined = sum of (light pass x colour
 pass) + Emission + Environment, on a path-traced scene of several materials, on both kernels; the compiled passes
 follow the reference's, and asking for them leaves Combined as it was, bit for bit."""
 from __future__ import annotations
@@ -55,7 +55,7 @@ def test_a_lambert_plane_under_a_point_light_is_all_diffuse_direct(kernels):
 
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_one_light_pass_alone_is_the_same_as_among_all(kernels):
-    """Diffuse Direct asked alone (Blender's usual choice: one tick) equals Diffuse Direct among all six, and no
+    """Diffuse Direct asked alone (Blender's usual choice: one tick) equals Diffuse Direct among all eight, and no
     other light pass is computed or returned."""
     scene = plane_scene(("DIFFUSE", (0.8, 0.5, 0.3), {}))
     settings = RenderSettings(width=24, height=16, samples=4, integrator="path", max_bounces=1,
@@ -134,12 +134,14 @@ def test_light_passes_times_colours_plus_emission_and_environment_make_combined(
     p = {name: result.aux[name].astype(np.float64) for name in wanted}
     total = p["emission"] + p["environment"]
     for name in LIGHT_PASSES:
-        total += p[name] * p[COLOR_OF[name]]
+        total += p[name] * (p[COLOR_OF[name]] if name in COLOR_OF else 1.0)
     combined = result.image[..., :3].astype(np.float64)
     np.testing.assert_allclose(total, combined, rtol=1e-4, atol=1e-5)
-    # Every kind of light is there: diffuse, glossy and transmission, direct and (path traced) indirect.
+    # Every kind of light is there: diffuse, glossy and transmission, direct and (path traced) indirect; no medium,
+    # so no volume light (tests/test_passes_volume.py).
     for name in LIGHT_PASSES:
-        assert (p[name].max() > 0.0) == (integrator == "path" or name.endswith("_direct")), name
+        expected = name in COLOR_OF and (integrator == "path" or name.endswith("_direct"))
+        assert (p[name].max() > 0.0) == expected, name
 
 
 @pytest.mark.parametrize("kernels", KERNELS)

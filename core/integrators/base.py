@@ -85,7 +85,7 @@ class Radiance(NamedTuple):
     holdout: (n,) float64 the share of each ray's alpha that holdout objects take away (Object > Visibility >
              Holdout), and on a transparent film what its paths through clear surfaces alone bring back from the world
              (the mean of their throughput, as Cycles), or None where neither can be
-    light:   (n, 6, 3) float64 each ray's contributions to the light passes (lightpasses.LIGHT_PASSES' order), or
+    light:   (n, 8, 3) float64 each ray's contributions to the light passes (lightpasses.LIGHT_PASSES' order), or
              None where none is asked for
     groups:  (n, G, 3) float64 each ray's light by the group of its source (core/integrators/lightgroups.py), or
              None where no light group is asked for

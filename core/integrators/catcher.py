@@ -187,7 +187,7 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
                 pixel: np.ndarray, sample: np.ndarray, light=None, groups=None) -> np.ndarray:
     """Each sample's row (n, FILM_CHANNELS) float64 of the film's shadow catcher sums: M, K, B, S (module
     docstring). rgba: (n, 4) the samples' values (C); traced: (k,) int64 the samples with a camera ray; O, D, t_max,
-    pixel, sample: those rays' (k, 3), (k, 3), (k,), (k,), (k,). light, groups: those rays' light passes (k, 6, 3)
+    pixel, sample: those rays' (k, 3), (k, 3), (k,), (k,), (k,). light, groups: those rays' light passes (k, 8, 3)
     and light groups (k, G, 3), or None: as Cycles writes neither from a path that met a catcher, the caught rays'
     are set to nothing, but for the lamps the camera sees in front of the catcher in their groups (changed here)."""
     from . import for_render

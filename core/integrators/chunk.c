@@ -206,6 +206,9 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .passes = passes, .media = params->media, .film_transparent = params->transparent != 0.0,
         .clear_glass = params->clear_glass,
     };
+    if (ds.light_passes)                        /* (what the media scatter along the camera rays: below) */
+        for (int64_t k = 0; k < BLOCK; k++)
+            for (int i = 0; i < LIGHT_CHANNELS; i++) work->lane_light[k][i] = 0.0;
     if (ds.features) camera_lane_features(params, b, H, work, ds.back);
     /* The path tracer's bounce limits; the direct tracer's through transparent surfaces: no bounces but those. */
     PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
@@ -227,12 +230,24 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
             H->lane_scattered[lane][0] = H->lane_scattered[lane][1] = H->lane_scattered[lane][2] = 0.0;
             if (!b->valid[lane]) continue;
             double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]}, D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
+            /* (the light passes: Volume Direct at a camera ray's first scattering event, Volume Indirect after it,
+             *  lightpasses.c add_scattered; a path that scattered is volume from then on) */
+            double volume_only[PASS_KINDS][3];
+            stretch_shares(0, NULL, volume_only);
             if (chains) {
                 Arrival *a = work->arrivals + work->n_arrivals;
                 int arrived = 0;
+                double later[3] = {0.0, 0.0, 0.0};
                 scattering_rays += volume_chain(&ds, &limits, O, D, H->t[lane], H->lane_inside + lane, one,
                                                 (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0, 0,
-                                                H->lane_scattered[lane], through[lane], a, &arrived);
+                                                H->lane_scattered[lane], later, through[lane], a, &arrived);
+                if (ds.light_passes) {
+                    add_scattered(work->lane_light[lane], H->lane_scattered[lane], 0, volume_only, 1);
+                    add_scattered(work->lane_light[lane], later, 0, volume_only, 0);
+                    for (int p = 0; p < PASS_KINDS; p++)
+                        for (int c = 0; c < 3; c++) a->shares[p][c] = volume_only[p][c];
+                }
+                for (int c = 0; c < 3; c++) H->lane_scattered[lane][c] += later[c];
                 if (arrived) {
                     double cone, spread;            /* (its camera ray's cone: path.with_arrivals) */
                     camera_ray_cone(params, b, lane, O, &cone, &spread);
@@ -249,6 +264,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
             scattering_rays += in_scattering(&ds, (int)params->integrator == INTEGRATOR_PATH ? &limits : &clear_only,
                                              O, D, H->t[lane], H->lane_inside + lane, one, (int64_t)b->pixel[lane],
                                              (int64_t)b->index[lane], 0, 0, H->lane_scattered[lane]);
+            if (ds.light_passes) add_scattered(work->lane_light[lane], H->lane_scattered[lane], 0, volume_only, 1);
         }
         if (chains) {
             /* The camera's hits: what they emit seen through the media's transmittance, their paths going on with
@@ -276,6 +292,8 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                 scattering_rays += trace_paths(C, &ds, &limits, work, embree, 1);
                 for (int64_t lane = 0; lane < b->n; lane++) {
                     for (int c = 0; c < 3; c++) H->lane_scattered[lane][c] += work->extra[lane][c];
+                    if (ds.light_passes)            /* (their light passes: Volume Indirect, by their shares) */
+                        for (int i = 0; i < LIGHT_CHANNELS; i++) work->lane_light[lane][i] += work->light[lane][i];
                     if (lane_groups != NULL)
                         for (int64_t i = 0; i < 3 * ds.groups; i++)
                             lane_groups[3 * lane * ds.groups + i] += work->groups[3 * lane * ds.groups + i];
@@ -699,6 +717,9 @@ static void render_chunk(const ChunkArgs *a)
             }
             if (scattering) {                           /* what its media scatter towards it (not clamped) */
                 for (int c = 0; c < 3; c++) s[c] += H.lane_scattered[lane][c];
+                if (light_passes && !caught[lane])      /* (and its light passes: integrate's lane_light) */
+                    for (int i = 0; i < LIGHT_CHANNELS; i++)
+                        out->light[LIGHT_CHANNELS * k + i] += finite_or_zero(work->lane_light[lane][i]);
                 if (G > 0 && work->lane_groups != NULL && !caught[lane])   /* (and its chains' light groups) */
                     for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->lane_groups[3 * G * lane + i];
             }
@@ -706,8 +727,9 @@ static void render_chunk(const ChunkArgs *a)
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
                 double one[3] = {1.0, 1.0, 1.0};
                 DirectSettings seen = {.lights = params->lights, .n_lights = (int64_t)params->light_count,
-                                       .context = params->light_context};
-                passes_along_ray(passes, &seen, lane, (int64_t)b.index[lane], one, O, D, is_hit, H.t[lane]);
+                                       .context = params->light_context, .media = params->media};
+                passes_along_ray(passes, &seen, lane, (int64_t)b.index[lane], one, O, D, is_hit, H.t[lane],
+                                 params->media != NULL ? &H.lane_inside[lane] : NULL);
                 int64_t width = 2 * params->passes->matte_count * params->passes->slots;
                 passes_to_pixel(passes, lane, out->passes != NULL ? out->passes + params->passes->channels * k : NULL,
                                 out->mattes != NULL ? out->mattes + width * k : NULL);

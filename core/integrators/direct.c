@@ -614,7 +614,8 @@ typedef struct {
 
 /* path.py: a camera chain's ray from hit h straight on through a transparent surface (passes.c). */
 INLINE void passes_straight_on(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h,
-                               const double *weight, const double *O, const double *D, int hit, double t);
+                               const double *weight, const double *O, const double *D, int hit, double t,
+                               const VolumeStack *inside);
 
 
 /* shadows.transmittance for up to 8 shadow rays (O, D0, t: float64 origins, directions, lengths; paths: the
@@ -1267,7 +1268,8 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                         for (int c = 0; c < 3; c++) r->shares[p][c] = shares[p][c];
             }
             if (ds->passes != NULL && H->bounce[owner[k]] == 0 && bsdf_is(s->kind, BSDF_FLAG_STRAIGHT))
-                passes_straight_on(ds->passes, ds, H, owner[k], s->weight, O, D, hit, t_limit);
+                passes_straight_on(ds->passes, ds, H, owner[k], s->weight, O, D, hit, t_limit,
+                                   ds->media != NULL ? &inside : NULL);
             if (!ds->gather || walked) continue;     /* (a walk's exit gathers at the next vertex) */
             double groups_L[3 * MAX_LIGHT_GROUPS];
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;

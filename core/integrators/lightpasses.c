@@ -1,6 +1,7 @@
 /* Light passes: core/integrators/lightpasses.py. Each pass kind's share of a hit's closures' f cos at a
  * direction (a light sample's, or a BSDF-sampled ray's), which splits that direction's light between
- * Diffuse, Glossy and Transmission. */
+ * Diffuse, Glossy and Transmission; and a stretch of a path through media, whose scattered light is Volume
+ * (direct at a path's first scattering event, before any real bounce) or its surface bounce's kinds' (indirect). */
 
 /* PASS_* and LIGHT_CHANNELS (the three kinds direct, then indirect, RGB each) come from lightpasses.py. */
 
@@ -67,4 +68,26 @@ INLINE void add_split(double parts[PASS_KINDS][3], const double *value, const do
 {
     for (int p = 0; p < PASS_KINDS; p++)
         for (int j = 0; j < 3; j++) parts[p][j] += value[j] * shares[3 * p + j];
+}
+
+/* lightpasses.stretch_shares for one stretch of a path: the shares (PASS_KINDS x 3) of the light media scatter along
+ * it and of what the path gathers after scattering there: volume where the path made no real bounce before the
+ * stretch (bounces 0), else the path's own `shares` (PASS_KINDS x 3, row by row). */
+INLINE void stretch_shares(int bounces, const double *shares, double out[PASS_KINDS][3])
+{
+    for (int p = 0; p < PASS_KINDS; p++)
+        for (int c = 0; c < 3; c++)
+            out[p][c] = bounces == 0 ? (p == PASS_VOLUME ? 1.0 : 0.0) : shares[3 * p + c];
+}
+
+/* lightpasses.add_scattered for one stretch: the light value (3, throughput included) its media scattered into a
+ * camera lane's light passes out (LIGHT_CHANNELS): direct where the path made no real bounce before the stretch
+ * (bounces 0) and the light was gathered at its first scattering event (at_first_event), else indirect, split by
+ * the stretch's shares (stretch_shares). */
+INLINE void add_scattered(double *out, const double *value, int bounces, double shares[PASS_KINDS][3],
+                          int at_first_event)
+{
+    int base = bounces == 0 && at_first_event ? 0 : PASS_KINDS;
+    for (int p = 0; p < PASS_KINDS; p++)
+        for (int c = 0; c < 3; c++) out[3 * (base + p) + c] += value[c] * shares[p][c];
 }

@@ -1,19 +1,30 @@
-"""Light passes: Cycles' Diffuse, Glossy and Transmission Direct and Indirect, from the integrator's own samples.
+"""Light passes: Cycles' Diffuse, Glossy, Transmission and Volume Direct and Indirect, from the integrator's own samples.
 
 Cycles' meaning (kernel/film/light_passes.h), which Primer follows: a path's light is classified by what the
 path did at its first real bounce (its first surface interaction other than passing straight through a
-Transparent closure), split by the kind of closure that scattered it there:
+Transparent closure, or its first scattering in a medium), split by the kind of closure that scattered it there:
 
 - diffuse       closures of the diffuse type (BSDFFlags.DIFFUSE_TYPE, Cycles' CLOSURE_IS_BSDF_DIFFUSE: Lambert,
                 Oren-Nayar, Sheen; the same closures as the Diffuse Color pass, core/integrators/passes.py)
 - glossy        the glossy type (microfacet lobes, mirrors, the velvet), and glass reflecting (light on the
                 viewer's side)
 - transmission  the transmission type, and glass refracting (light from the other side)
+- volume        a scattering event in a medium (core/integrators/volume.py): Cycles' PATH_RAY_VOLUME_PASS, set where
+                a path's first real interaction is a volume scatter (integrator/path_state.h, and shade_volume.h for
+                its light samples: "no diffuse/glossy distinction needed for volumes")
 
 "Direct" is the light that arrives at the first hit: its light samples (next-event estimation) and what its
 BSDF-sampled ray finds (lamps, emitters, the world), each weighed by MIS as in Combined. "Indirect" is
 everything a path gathers from its second hit on. What the camera sees itself (emission, the world, lamps,
 and what it sees through Transparent closures) goes to the Emission and Environment passes instead.
+
+In media the same rule holds, a scattering point being a hit: on a stretch of a path before any real bounce (the
+camera ray, or a ray through Transparent closures from it), the light gathered at its scattering point (its light
+samples, each lamp's equi-angular point, and what its phase-sampled ray finds) is Volume Direct; everything the
+path gathers after that scattering event (further scattering events, the surfaces its phase ray reaches) is Volume
+Indirect (`stretch_shares`). On a stretch after a surface bounce, what the media scatter is indirect light of that
+bounce's kind (the path's shares). What a medium emits along the camera ray is seen by the camera: Emission, as in
+Cycles (film_write_volume_emission writes a path without a pass flag to the Emission pass).
 
 The split by closure kind, as Cycles' BsdfEval keeps it: a light sample's contribution is shared out in
 proportion to each kind's part of the closures' f cos at the light's direction (`kind_shares`); a BSDF-sampled
@@ -21,12 +32,13 @@ ray's, and with it the whole rest of its path, in proportion to each kind's part
 direction (one-hot for a delta closure: a mirror is glossy, smooth glass glossy or transmission by the side the
 ray leaves to). The shares of one contribution add up to 1 wherever it is not 0, so, per sample,
 
-    Combined = sum of the six light passes' contributions + Emission + Environment.
+    Combined = sum of the eight light passes' contributions + Emission + Environment.
 
-Cycles stores each light pass divided by the matching colour pass (scene/film.cpp: DiffDir's divide_type is
+Cycles stores each surface light pass divided by the matching colour pass (scene/pass.cpp: DiffDir's divide_type is
 PASS_DIFFUSE_COLOR; kernel/film/read.h divides with safe_divide_even_color), so that DiffDir x DiffCol +
-DiffInd x DiffCol + ... + Emission + Environment = Combined: `divide_by_color` does the same with the colour
-passes Primer writes (core/integrators/passes.py).
+DiffInd x DiffCol + ... + VolumeDir + VolumeInd + Emission + Environment = Combined: `divide_by_color` does the same
+with the colour passes Primer writes (core/integrators/passes.py). The volume passes have no colour pass and are
+not divided (scene/pass.cpp: PASS_VOLUME_DIRECT has no divide_type).
 """
 from __future__ import annotations
 
@@ -37,18 +49,19 @@ from ..native import schema
 from .. import materials as materials_
 from ..materials.closures import Closures, eval_closures
 
-# The light passes, in the order of the integrator's (n, 6, 3) buffer: the three kinds direct, then indirect.
-LIGHT_PASSES = ("diffuse_direct", "glossy_direct", "transmission_direct",
-                "diffuse_indirect", "glossy_indirect", "transmission_indirect")
-# The closure kinds the passes split light by; the indirect passes follow the direct ones.
-DIFFUSE, GLOSSY, TRANSMISSION = schema.constants("PASS", ("diffuse", "glossy", "transmission"),
-                                                 "the light passes' kinds of closure").values()
-KINDS = schema.constant("PASS_KINDS", 3, "")
-# The colour pass each light pass is divided by (Cycles' divide_type).
-COLOR_OF = {name: f"{name.split('_')[0]}_color" for name in LIGHT_PASSES}
-# The film's buffer of the light passes' per-pixel sums: 6 passes x RGB.
+# The light passes, in the order of the integrator's (n, 8, 3) buffer: the four kinds direct, then indirect.
+LIGHT_PASSES = ("diffuse_direct", "glossy_direct", "transmission_direct", "volume_direct",
+                "diffuse_indirect", "glossy_indirect", "transmission_indirect", "volume_indirect")
+# The kinds the passes split light by (three of closure, and scattering in media); the indirect passes follow the
+# direct ones.
+DIFFUSE, GLOSSY, TRANSMISSION, VOLUME = schema.constants("PASS", ("diffuse", "glossy", "transmission", "volume"),
+                                                         "the light passes' kinds of closure").values()
+KINDS = schema.constant("PASS_KINDS", 4, "")
+# The colour pass each surface light pass is divided by (Cycles' divide_type); the volume passes have none.
+COLOR_OF = {name: f"{name.split('_')[0]}_color" for name in LIGHT_PASSES if not name.startswith("volume")}
+# The film's buffer of the light passes' per-pixel sums: 8 passes x RGB.
 FILM_BUFFER = "light_passes"
-FILM_CHANNELS = schema.constant("LIGHT_CHANNELS", 3 * len(LIGHT_PASSES), "the light passes' channels: 6 passes x RGB")
+FILM_CHANNELS = schema.constant("LIGHT_CHANNELS", 3 * len(LIGHT_PASSES), "the light passes' channels: 8 passes x RGB")
 
 
 def wanted(passes) -> bool:
@@ -60,7 +73,8 @@ def first_hit_passes(passes) -> tuple:
     """Return the first-hit passes (core/integrators/passes.py) a render of `passes` computes: those asked for
     but the light passes, and the colour passes the light passes asked for are divided by."""
     names = [name for name in passes if name not in LIGHT_PASSES]
-    names += [COLOR_OF[name] for name in LIGHT_PASSES if name in passes and COLOR_OF[name] not in names]
+    names += [COLOR_OF[name] for name in LIGHT_PASSES
+              if name in passes and name in COLOR_OF and COLOR_OF[name] not in names]
     return tuple(dict.fromkeys(names))
 
 
@@ -112,6 +126,31 @@ def sample_shares(closures: Closures, wo: np.ndarray, wi: np.ndarray, kind: np.n
     return np.where(((flags & F.STRAIGHT) != 0)[:, None, None], 0.0, shares)
 
 
+def volume_shares(k: int) -> np.ndarray:
+    """Return the shares (k, KINDS, 3) of k paths whose first real interaction is a scattering event: all volume."""
+    out = np.zeros((k, KINDS, 3))
+    out[:, VOLUME] = 1.0
+    return out
+
+
+def stretch_shares(bounces: np.ndarray, shares: np.ndarray) -> np.ndarray:
+    """Return the shares (k, KINDS, 3) of the light media scatter along k stretches of paths and of what those paths
+    gather after scattering there: volume where the path made no real bounce before the stretch (bounces (k,) int 0),
+    else the path's own shares (k, KINDS, 3) (those of its first real bounce)."""
+    return np.where((np.asarray(bounces) == 0)[:, None, None], volume_shares(len(shares)), shares)
+
+
+def add_scattered(light: np.ndarray, owner: np.ndarray, value: np.ndarray, bounces: np.ndarray, shares: np.ndarray,
+                  at_first_event: bool) -> None:
+    """Add to the light passes `light` (n, 8, 3) the light value (k, 3) (throughput included) media scattered along
+    k stretches of the camera rays `owner` (k,): Volume Direct where the path made no real bounce before the stretch
+    (bounces (k,) int 0) and the light was gathered at its first scattering event (at_first_event), else indirect,
+    split by the stretches' shares (k, KINDS, 3) (stretch_shares)."""
+    direct = (np.asarray(bounces) == 0) & bool(at_first_event)
+    np.add.at(light, (owner[direct], slice(None, KINDS)), split(value[direct], shares[direct]))
+    np.add.at(light, (owner[~direct], slice(KINDS, None)), split(value[~direct], shares[~direct]))
+
+
 def split(value: np.ndarray, shares: np.ndarray) -> np.ndarray:
     """Return contributions value (k, 3) shared out by `shares` (k, KINDS, 3): (k, KINDS, 3)."""
     return value[:, None, :] * shares
@@ -144,15 +183,20 @@ def safe_divide_even_color(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def divide_by_color(sums: np.ndarray, count: np.ndarray, colors: dict, wanted) -> dict:
     """Return the light passes `wanted` (names; others are ignored): name -> (H, W, 3) float32, each pixel's mean
-    contribution divided by the matching colour pass (safe_divide_even_color; 0 where the pixel has no samples).
+    contribution divided by the matching colour pass where it has one (safe_divide_even_color; 0 where the pixel has no samples).
 
-    sums: (H, W, 18) float64 the film's per-pixel sums (FILM_BUFFER); count: (H, W) samples per pixel;
-    colors: colour pass name -> (H, W, 3) image (core/integrators/passes.py), at least those of `wanted`."""
+    sums: (H, W, 24) float64 the film's per-pixel sums (FILM_BUFFER); count: (H, W) samples per pixel;
+    colors: colour pass name -> (H, W, 3) image (core/integrators/passes.py), at least those of `wanted`. The
+    volume passes have no colour pass: their mean, undivided."""
     mean = np.divide(sums, count[..., None], out=np.zeros_like(sums), where=count[..., None] > 0)
     out = {}
     for index, name in enumerate(LIGHT_PASSES):
         if name not in wanted:
             continue
+        value = mean[..., 3 * index:3 * index + 3]
+        if name not in COLOR_OF:
+            out[name] = value.astype(np.float32)
+            continue
         color = np.asarray(colors[COLOR_OF[name]], np.float64)
-        out[name] = safe_divide_even_color(mean[..., 3 * index:3 * index + 3], color).astype(np.float32)
+        out[name] = safe_divide_even_color(value, color).astype(np.float32)
     return out

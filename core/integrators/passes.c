@@ -238,16 +238,33 @@ NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, 
  * unit D to t (its hit where `hit`, else where it escapes): the lamps with extent the camera sees that it passes, the
  * world where it escapes, and where it escapes with the data passes not done, sample 0's back to 0. */
 INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t lane, int64_t sample,
-                             const double *throughput, const double *O, const double *D, int hit, double t)
+                             const double *throughput, const double *O, const double *D, int hit, double t,
+                             const VolumeStack *inside)
 {
     const PassTables *pt = lp->tables;
+    /* (the media along the ray, where it crosses some: what they let through and emit, as in Combined) */
+    double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0}, kept[3];
+    const March *m = NULL;
+    March march;
+    int media = inside != NULL && ds->media != NULL;
+    if (media) {
+        medium_along(ds->media, inside, sigma, emission);
+        m = stretch_march(ds->media, inside, O, D, t, sigma, emission, &march);
+    }
     if (pt->offset[PASS_EMISSION] >= 0) {
         double seen[3] = {0.0, 0.0, 0.0};
         for (int64_t l = 0; l < ds->n_lights; l++) {
             LightHit lh;
-            if (camera_sees_lamp(ds->lights + l, O, D, t, hit, &lh))
+            if (camera_sees_lamp(ds->lights + l, O, D, t, hit, &lh)) {
+                if (media) {
+                    stretch_transmittance(m, sigma, lh.t, kept);
+                    for (int c = 0; c < 3; c++) lh.radiance[c] *= kept[c];
+                }
                 for (int c = 0; c < 3; c++) seen[c] += lh.radiance[c];
+            }
         }
+        /* (a medium the camera sees is Cycles' Emission: film_write_volume_emission on a path with no pass yet) */
+        if (media) stretch_emitted(m, sigma, emission, t, seen);
         pass_add(lp, lane, PASS_EMISSION, seen, throughput);
     }
     if (hit) return;
@@ -255,6 +272,10 @@ INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t l
         double L[3];
         LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
         world_seen(ds->context->world, D, &camera, L);     /* (a camera chain's ray: a world's graph per ray) */
+        if (media) {
+            stretch_transmittance(m, sigma, INFINITY, kept);
+            for (int c = 0; c < 3; c++) L[c] *= kept[c];
+        }
         pass_add(lp, lane, PASS_ENVIRONMENT, L, throughput);
     }
     if (!lp->done[lane] && sample == 0) {
@@ -269,12 +290,13 @@ INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t l
  * O along D to t (its hit where `hit`): passes.along_ray with the chain's throughput past the surface, within the
  * transparent-bounce limit. */
 INLINE void passes_straight_on(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h,
-                               const double *weight, const double *O, const double *D, int hit, double t)
+                               const double *weight, const double *O, const double *D, int hit, double t,
+                               const VolumeStack *inside)
 {
     if (H->transparent[h] + 1 > lp->transparent_bounces) return;
     double tp[3];
     for (int c = 0; c < 3; c++) tp[c] = H->throughput[3 * h + c] * weight[c];
-    passes_along_ray(lp, ds, H->lane[h], H->sample[h], tp, O, D, hit, t);
+    passes_along_ray(lp, ds, H->lane[h], H->sample[h], tp, O, D, hit, t, inside);
 }
 
 /* cryptomatte.fill_slots for one entry: id (a float32's value, never 0) of weight into a pixel's slots (slots, 2). */

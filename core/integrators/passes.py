@@ -66,6 +66,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import materials as materials_
+from .. import volumes
 from ..camera import camera as camera_
 from ..geometry.surface import hit_attributes, hit_owners
 from ..materials.closures import each_kind
@@ -408,19 +409,28 @@ def at_vertex(ctx, dp: DataPasses, rows: np.ndarray, owner: np.ndarray, vertex: 
 
 
 def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O: np.ndarray, D: np.ndarray,
-              hit: np.ndarray, t: np.ndarray) -> None:
+              hit: np.ndarray, t: np.ndarray, stretch=None) -> None:
     """What rays of camera chains meet before their end: owner (k,) int64 the camera rays (distinct), throughput
     (k, 3) the chains' there, rays O, D (k, 3) that end at t (k,) (their hit where hit (k,) bool, else where they
-    escape): the lamps with extent they pass (emission), the world where they escape (environment), and where they
-    escape with the data passes not done, sample 0's position, ids and depth back to 0."""
+    escape): the lamps with extent they pass and what the media along them emit (emission: a medium the camera
+    sees is Cycles' Emission, film_write_volume_emission on a path with no pass yet), the world where they escape
+    (environment), and where they escape with the data passes not done, sample 0's position, ids and depth back to
+    0. stretch: the media the rays cross (core/volumes Stretch, k rows), or None: the lamps and the world keep what
+    they let through over their distance, as in Combined."""
     if len(owner) == 0:
         return
     if dp.layout.has("emission"):
-        dp.add("emission", owner, throughput * lamps_seen(ctx, O, D, t, escaped=~hit))
+        seen = lamps_seen(ctx, O, D, t, escaped=~hit, sigma=stretch)
+        if stretch is not None:
+            seen = seen + volumes.emitted(stretch, t)
+        dp.add("emission", owner, throughput * seen)
     missed = np.flatnonzero(~hit)
     world = ctx.extra.get("world_light")
     if dp.layout.has("environment") and world is not None and world.camera and len(missed):
-        dp.add("environment", owner[missed], throughput[missed] * world.radiance_seen(D[missed]))
+        seen = world.radiance_seen(D[missed])
+        if stretch is not None:
+            seen = seen * stretch.rows(missed).transmittance(np.full(len(missed), np.inf))
+        dp.add("environment", owner[missed], throughput[missed] * seen)
     gone = owner[missed][~dp.done[owner[missed]] & dp.first[owner[missed]]]
     for name in ("position", "object_index", "material_index", "z_depth"):
         dp.set(name, gone, 0.0)

@@ -30,6 +30,7 @@ typedef struct {
     double min_pdf;                            /* the smallest pdf of its real bounces and phase rays */
     int diffuse, glossy, transmission, transparent, portal, bounds;
     double cone, spread;                       /* its ray cone from the scattering point (arrival_cone) */
+    double shares[PASS_KINDS][3];              /* its path's light passes' shares (lightpasses.c stretch_shares) */
 } Arrival;
 
 /* path.with_arrivals' ray cone for arrival a, whose path's ray had `cone` and `spread`: a scattering point has no
@@ -47,6 +48,8 @@ typedef struct {
     PathRays rays;
     double extra[BLOCK][3];
     double light[BLOCK][LIGHT_CHANNELS];       /* each camera lane's light passes (lightpasses.c), where asked for */
+    double lane_light[BLOCK][LIGHT_CHANNELS];  /* the same of what the media scatter along each camera ray and its
+                                                * chains bring (chunk.c), beside its hit's path's */
     double *groups;                            /* (BLOCK, G, 3) each camera lane's light groups from vertices after
                                                 * the first (lightgroups.py), or NULL */
     double features[BLOCK][FEATURE_CHANNELS];  /* each camera lane's denoising features (features.c), where asked for */
@@ -297,7 +300,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
 
 /* path.with_arrivals for one path: the vertex after `vertex` where arrival a (a path that scattered in media, volume.c
  * volume_chain) reached a surface, appended to next: its surface and material, seen from its phase ray as a volume
- * scatter ray, its counters, no light passes' shares nor feature vertex of its own. */
+ * scatter ray, its counters and light passes' shares (volume: lightpasses.c stretch_shares), no feature vertex of
+ * its own. */
 NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vertex, BlockHits *next)
 {
     int lift = ds->shadows->terminator_fix != 0.0;
@@ -346,7 +350,7 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     next->looking[m] = 0;
     if (ds->light_passes)
         for (int p = 0; p < PASS_KINDS; p++)
-            for (int c = 0; c < 3; c++) next->shares[m][p][c] = 0.0;
+            for (int c = 0; c < 3; c++) next->shares[m][p][c] = a->shares[p][c];
 }
 
 /* Zero what the hits of H gather for the light passes. */

@@ -110,7 +110,8 @@ def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner
         if value is None:
             out[name] = None
         elif name == "shares":
-            out[name] = np.concatenate([value, np.zeros((a,) + value.shape[1:])])
+            # (the light passes' shares of the paths that scattered: lightpasses.stretch_shares, or none)
+            out[name] = np.concatenate([value, arrivals.get("shares", np.zeros((a,) + value.shape[1:]))])
         else:
             out[name] = np.concatenate([np.asarray(value), np.asarray(extra[name]).astype(np.asarray(value).dtype)])
     hits = arrivals["hits"]
@@ -298,26 +299,38 @@ class PathTracing(Integrator):
         # With Volume Bounces, paths go on from where they scatter (volume.multiple_scattering).
         onward = scatters and s.volume_bounces > 0 and not self.direct_only
         camera_through = arrivals = None
+        # The light passes (core/integrators/lightpasses.py): each camera ray's contributions by pass. What the media
+        # scatter along the camera rays is Volume Direct at their first scattering event, Volume Indirect after it.
+        light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3)) if lightpasses.wanted(s.passes) else None
         if onward and volume_.volume_bounces_left(ctx, 0, 0):
             zero = np.zeros(len(O), np.int64)
             counters = {name: zero for name in COUNTERS}
+            events = {} if light is not None else None
             scattered, shadow_rays, camera_through, arrivals = volume_.multiple_scattering(
                 ctx, O, D, np.where(found.hit, found.t, t_max), inside, np.ones((len(O), 3)), pixel, sample, 0,
-                counters, through_transparent)
+                counters, through_transparent, events)
             L_out += scattered
+            if light is not None:
+                everyone, volume_only = np.arange(len(O)), lightpasses.volume_shares(len(O))
+                lightpasses.add_scattered(light, everyone, events["first"], zero, volume_only, True)
+                lightpasses.add_scattered(light, everyone, events["later"], zero, volume_only, False)
+                if arrivals is not None:
+                    arrivals["shares"] = lightpasses.volume_shares(len(arrivals["origin"]))
         elif scatters:
             # The light the media scatter towards the camera along its rays (core/integrators/volume.py).
             scattered, shadow_rays = volume_.in_scattering(ctx, O, D, np.where(found.hit, found.t, t_max), inside,
                                                            np.ones((len(O), 3)), pixel, sample, 0, 0,
                                                            through_transparent, recorder)
             L_out += scattered
+            if light is not None:
+                light[:, lightpasses.VOLUME] += scattered
         # The first-hit passes (passes.py): what the camera rays pass and escape to, then along their camera chains.
         data = passes_.DataPasses.of(ctx, sample)
         if data is not None:
             passes_.along_ray(ctx, data, np.arange(len(O)), np.ones((len(O), 3)), O, D, found.hit,
-                              np.where(found.hit, found.t, t_max))
+                              np.where(found.hit, found.t, t_max), stretch)
         if surface is None and arrivals is None:
-            return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L,
+            return Radiance(L_out, found.hit, 0, light=light, groups=None if groups is None else groups.L,
                             features=None if feats is None else feats.stacked(), passes=data)
         D_hit = vectors.gather(D, hit)
         held = np.zeros(len(O))                      # each camera ray's alpha that holdouts take away
@@ -351,9 +364,7 @@ class PathTracing(Integrator):
         max_bounces = 0 if self.direct_only else s.max_bounces
         wo = -D_hit
         vertex = 0
-        # The light passes (core/integrators/lightpasses.py): each camera ray's contributions by pass, and each
-        # path's shares by closure kind, set at its first real bounce.
-        light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3)) if lightpasses.wanted(s.passes) else None
+        # The light passes: each path's shares by kind, set at its first real bounce or scattering event.
         shares = np.zeros((len(hit), lightpasses.KINDS, 3))
         looking = np.ones(len(hit), bool)            # which paths still look for their feature vertex
         feature_throughput = np.ones((len(hit), 3))
@@ -419,10 +430,11 @@ class PathTracing(Integrator):
             if light is not None:
                 # Direct: what the first hits gather (not their emission); indirect: all later vertices gather.
                 if parts is not None:
-                    light[owner[first], :lightpasses.KINDS] += throughput[first, None, :] * parts.gathered[first]
+                    np.add.at(light, (owner[first], slice(None, lightpasses.KINDS)),
+                              throughput[first, None, :] * parts.gathered[first])
                 later = ~first
-                light[owner[later], lightpasses.KINDS:] += lightpasses.split(throughput[later] * L_vertex[later],
-                                                                             shares[later])
+                np.add.at(light, (owner[later], slice(lightpasses.KINDS, None)),
+                          lightpasses.split(throughput[later] * L_vertex[later], shares[later]))
             recorder.path_vertex(vertex, owner, surface, throughput, L_vertex)
             if ray is None:
                 break
@@ -450,7 +462,8 @@ class PathTracing(Integrator):
                 chain = np.flatnonzero((bounce[ray.rows] == 0) & is_transparent & (tp <= s.transparent_max_bounces))
                 passes_.along_ray(ctx, data, owner[ray.rows[chain]], throughput[ray.rows[chain]] * ray.weight[chain],
                                   ray.O[chain], ray.D[chain], ray.hits.hit[chain],
-                                  np.where(ray.hits.hit[chain], ray.hits.t[chain], np.inf))
+                                  np.where(ray.hits.hit[chain], ray.hits.t[chain], np.inf),
+                                  None if media is None else media.along(ray.inside[chain], ray.O[chain], ray.D[chain]))
             # A path past its bounce limits still looks through the transparent surfaces its last ray meets, to
             # the light behind them (Cycles' terminate-after-transparent): no more bounces, only clear ones.
             ended = np.flatnonzero(ray.hits.hit & ~within & (tp <= s.transparent_max_bounces))
@@ -489,6 +502,13 @@ class PathTracing(Integrator):
                 going &= survived
                 next_throughput = next_throughput / np.where(going, q, 1.0)[:, None]
             vertex_arrivals = None
+            path_shares = None
+            if light is not None:
+                # A path's shares are those of its first real bounce's ray, kept from then on.
+                sets = (bounce[ray.rows] == 0) & ~is_transparent
+                path_shares = shares[ray.rows]
+                if parts is not None:
+                    path_shares = np.where(sets[:, None, None], parts.ray_shares, path_shares)
             if feats is not None and media is not None:
                 # (the media along this bounce's rays, where their paths still look: features.in_media)
                 rows = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived & looking[ray.rows])
@@ -510,11 +530,19 @@ class PathTracing(Integrator):
                                         glossy=g[multi], transmission=tr[multi], transparent=tp[multi],
                                         portal=ray.path.portal[multi], bounds=vb[multi])
                         path_rows = owner[ray.rows[multi]]
+                        events = {} if light is not None else None
                         scattered, count, passing, vertex_arrivals = volume_.multiple_scattering(
                             ctx, ray.O[multi], ray.D[multi], np.where(ray.hits.hit[multi], ray.hits.t[multi], np.inf),
                             ray.inside[multi], carried, pixel[path_rows], sample[path_rows],
-                            (vertex + 1) * VERTEX_DIMENSIONS, counters, through_transparent)
+                            (vertex + 1) * VERTEX_DIMENSIONS, counters, through_transparent, events)
                         L_out[path_rows] += scattered
+                        if light is not None:
+                            # (the light passes: lightpasses.stretch_shares, for the arrivals too)
+                            here = lightpasses.stretch_shares(bounces[multi], path_shares[multi])
+                            lightpasses.add_scattered(light, path_rows, events["first"], bounces[multi], here, True)
+                            lightpasses.add_scattered(light, path_rows, events["later"], bounces[multi], here, False)
+                            if vertex_arrivals is not None:
+                                vertex_arrivals["shares"] = here[vertex_arrivals["origin"]]
                         shadow_rays += count
                         next_throughput[multi] = carried * passing
                         going[multi] &= (passing != 0.0).any(axis=1)
@@ -528,18 +556,16 @@ class PathTracing(Integrator):
                         (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent, recorder)
                     L_out[path_rows] += carried * scattered
                     shadow_rays += count
+                    if light is not None:
+                        lightpasses.add_scattered(light, path_rows, carried * scattered, bounces[live],
+                                                  lightpasses.stretch_shares(bounces[live], path_shares[live]), True)
             keep = np.flatnonzero(going & np.isfinite(next_throughput).all(axis=1))
             if len(keep) == 0 and vertex_arrivals is None:
                 break
             seen_by = ray.seen_as[keep]
             looking, feature_throughput = looking[ray.rows][keep], feature_throughput[ray.rows][keep]
             if light is not None:
-                # A path's shares are those of its first real bounce's ray, kept from then on.
-                sets = (bounce[ray.rows] == 0) & ~is_transparent
-                shares = shares[ray.rows]
-                if parts is not None:
-                    shares = np.where(sets[:, None, None], parts.ray_shares, shares)
-                shares = shares[keep]
+                shares = path_shares[keep]
             # d. The next vertex: the surfaces the kept rays hit.
             hits = ray.hits
             rows = ray.rows[keep]
@@ -590,10 +616,10 @@ class PathTracing(Integrator):
     @staticmethod
     def light_behind(light: np.ndarray, owner: np.ndarray, value: np.ndarray, first: np.ndarray, ray_shares,
                      shares: np.ndarray) -> None:
-        """Add to the light passes `light` (n, 6, 3) what ended paths' last rays found behind transparent surfaces,
+        """Add to the light passes `light` (n, 8, 3) what ended paths' last rays found behind transparent surfaces,
         value (k, 3) of the camera rays `owner` (k,): direct, by their ray's shares ray_shares (k, KINDS, 3), where
         the ray left a first hit (first (k,) bool), else indirect by the path's shares (k, KINDS, 3)."""
         kinds = lightpasses.KINDS
         if first.any():
-            light[owner[first], :kinds] += lightpasses.split(value[first], ray_shares[first])
-        light[owner[~first], kinds:] += lightpasses.split(value[~first], shares[~first])
+            np.add.at(light, (owner[first], slice(None, kinds)), lightpasses.split(value[first], ray_shares[first]))
+        np.add.at(light, (owner[~first], slice(kinds, None)), lightpasses.split(value[~first], shares[~first]))

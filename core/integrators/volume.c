@@ -408,13 +408,15 @@ static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limit
  * scattering (in_scattering) and goes on to its hit. Adds to L (3) the light found, throughput included; into
  * through (3) what the path going on to the ray's own end carries on (0 where it scattered); where a scattered path
  * reached a surface, *arrived 1 and its arrival (its throughput, ray, bounces and media; the caller fills the rest).
- * dimension: the stretch's shift of sampling dimensions, each later event CHAIN_SHIFT more. Returns the shadow rays
- * traced. */
+ * dimension: the stretch's shift of sampling dimensions, each later event CHAIN_SHIFT more. later: where the light
+ * found at the events after the stretch's own goes instead of L (3, added to; the light passes'
+ * multiple_scattering events), or NULL: L. Returns the shadow rays traced. */
 NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits *limits, const double *O,
                                      const double *D, double t, const VolumeStack *inside, const double *throughput,
                                      int64_t pixel, int64_t sample, int64_t dimension, int bounce, int volume,
-                                     double *L, double *through, Arrival *arrival, int *arrived)
+                                     double *L, double *later, double *through, Arrival *arrival, int *arrived)
 {
+    double *after_L = later != NULL ? later : L;
     double light[3], carried[3] = {throughput[0], throughput[1], throughput[2]};
     Onward onward, after;
     *arrived = 0;
@@ -433,7 +435,7 @@ NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits 
             /* a. The path ends at its next scattering event: its single scattering, and on to the hit with T. */
             double found[3], sigma_t[3], emission[3], kept[3];
             rays += in_scattering(ds, limits, P, wi, reach, inside, carried, pixel, sample, dim, bounce, found);
-            for (int c = 0; c < 3; c++) L[c] += carried[c] * found[c];
+            for (int c = 0; c < 3; c++) after_L[c] += carried[c] * found[c];
             medium_along(ds->media, inside, sigma_t, emission);
             March march;
             stretch_transmittance(stretch_march(ds->media, inside, P, wi, reach, sigma_t, emission, &march), sigma_t,
@@ -444,7 +446,7 @@ NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits 
             double passing[3];
             rays += scatter_or_pass(ds, limits, P, wi, reach, inside, carried, pixel, sample, dim, bounce, light,
                                     passing, &after);
-            for (int c = 0; c < 3; c++) { L[c] += carried[c] * light[c]; carry[c] = carried[c] * passing[c]; }
+            for (int c = 0; c < 3; c++) { after_L[c] += carried[c] * light[c]; carry[c] = carried[c] * passing[c]; }
         }
         /* c. A path that reaches a surface arrives there, the next vertex of its path. */
         if (onward.ray.hit && (carry[0] != 0.0 || carry[1] != 0.0 || carry[2] != 0.0)) {
@@ -495,17 +497,29 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
         if (ds->features && H->looking[h])     /* (the media along it, where its path still looks: features.in_media) */
             features_along(work->features[H->lane[h]], work->reach + H->lane[h], H->feature_tp + 3 * h, carried,
                            ds->media, &r->inside, r->O, r->D, r->hit ? r->t : INFINITY, ds->back);
-        /* c. The light its media scatter towards it. */
-        double L[3] = {0.0, 0.0, 0.0};
+        /* c. The light its media scatter towards it; for the light passes, by the stretch's shares (lightpasses.c
+         *    stretch_shares: a path's shares are those of its first real bounce's ray, as next_vertices keeps them). */
+        double L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];
+        if (ds->light_passes)
+            stretch_shares(bounces, H->bounce[h] == 0 && !see_through ? &r->shares[0][0] : &H->shares[h][0][0],
+                           shares);
         int64_t dimension = (int64_t)(vertex + 1) * VERTEX_DIMENSIONS;
         if (H->volume[h] < limits->volume_bounces && bounces + 1 <= limits->max_bounces) {
             double through[3];
             int arrived = 0;
             Arrival *a = work->arrivals + work->n_arrivals;
+            double later[3] = {0.0, 0.0, 0.0};
             shadow_rays += volume_chain(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
-                                        H->pixel[h], H->sample[h], dimension, bounces, H->volume[h], L, through, a,
-                                        &arrived);
-            for (int c = 0; c < 3; c++) work->extra[H->lane[h]][c] += L[c];
+                                        H->pixel[h], H->sample[h], dimension, bounces, H->volume[h], L, later,
+                                        through, a, &arrived);
+            for (int c = 0; c < 3; c++) work->extra[H->lane[h]][c] += L[c] + later[c];
+            if (ds->light_passes) {
+                add_scattered(work->light[H->lane[h]], L, bounces, shares, 1);
+                add_scattered(work->light[H->lane[h]], later, bounces, shares, 0);
+                if (arrived)
+                    for (int p = 0; p < PASS_KINDS; p++)
+                        for (int c = 0; c < 3; c++) a->shares[p][c] = shares[p][c];
+            }
             for (int c = 0; c < 3; c++) r->attenuation[c] = through[c];
             if (!(through[0] != 0.0 || through[1] != 0.0 || through[2] != 0.0)) r->hit = 0;
             if (arrived) {
@@ -528,7 +542,11 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
         }
         shadow_rays += in_scattering(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
                                      H->pixel[h], H->sample[h], dimension, bounces, L);
-        for (int c = 0; c < 3; c++) work->extra[H->lane[h]][c] += carried[c] * L[c];
+        for (int c = 0; c < 3; c++) {
+            L[c] *= carried[c];
+            work->extra[H->lane[h]][c] += L[c];
+        }
+        if (ds->light_passes) add_scattered(work->light[H->lane[h]], L, bounces, shares, 1);
     }
     return shadow_rays;
 }

@@ -477,7 +477,7 @@ def joined(parts: list):
 
 def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                         throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
-                        counts: dict, behind) -> tuple:
+                        counts: dict, behind, events: dict = None) -> tuple:
     """The stretches of rays O, D (k, 3) over [0, t) whose paths have Volume Bounces left (volume_bounces_left),
     carrying `throughput` (k, 3): each scatters or goes on (scatter_or_pass); a path that scattered goes on along
     its phase ray, whose own stretch scatters or goes on again while it has bounces left, and otherwise gathers its
@@ -487,12 +487,16 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
     (diffuse, glossy...) carried unchanged. Returns (L (k, 3) the light found, throughput included; shadow rays;
     through (k, 3) what a path going on to its own ray's end carries on (0 where it scattered); arrivals: None or a
     dict of the scattered paths that reach a surface: origin (a,) the ray each came from, throughput (a, 3), O, D
-    (a, 3) their last ray, hits, pdf (a,) its phase pdf, inside (a, V), and each counter of `counts`)."""
+    (a, 3) their last ray, hits, pdf (a,) its phase pdf, inside (a, V), and each counter of `counts`).
+    events: a dict that receives L's two parts (the light passes, lightpasses.add_scattered): "first" (k, 3) the
+    light gathered at the stretches' own scattering events, "later" (k, 3) at the events after them; or None."""
     k = len(O)
     L = np.zeros((k, 3))
     light, shadow_rays, through, onward = scatter_or_pass(ctx, O, D, t, inside, throughput, pixel, sample, dimension,
                                                           counts["bounce"])
     L += throughput * light
+    if events is not None:
+        events["first"] = L.copy()
     arrivals = []
     step = 1
     while onward is not None and len(onward["weight"]):
@@ -542,4 +546,6 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
                       D=after["D"], hits=after["hits"], pdf=after["pdf"],
                       counts={name: value[rows] for name, value in state.items()})
         step += 1
+    if events is not None:
+        events["later"] = L - events["first"]
     return L, shadow_rays, through, joined(arrivals)

@@ -46,9 +46,10 @@
 #define PASS_DIFFUSE 0
 #define PASS_GLOSSY 1
 #define PASS_TRANSMISSION 2
-#define PASS_KINDS 3
-/* the light passes' channels: 6 passes x RGB (core.integrators.lightpasses) */
-#define LIGHT_CHANNELS 18
+#define PASS_VOLUME 3
+#define PASS_KINDS 4
+/* the light passes' channels: 8 passes x RGB (core.integrators.lightpasses) */
+#define LIGHT_CHANNELS 24
 /* the first-hit passes, in the film's order (passes.py) (core.integrators.passes) */
 #define PASS_POSITION 0
 #define PASS_UV 1

@@ -526,7 +526,7 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
     Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c); more volume materials than
     its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
-    no media, and that the media's light goes to Combined only."""
+    no media, and that the media's light goes to Combined only, not to the light groups."""
     media = ctx.extra.get("media")
     if media is None:
         return ""
@@ -536,9 +536,9 @@ def volume_reason(ctx: Context, warnings: list) -> str:
         if note not in warnings:
             warnings.append(note)
         return ""
-    if (media.scatters or media.emits) and (lightpasses.wanted(s.passes) or s.light_groups):
-        note = ("volumes: the light media scatter and emit goes to Combined only, not to the light passes or light "
-                "groups (Cycles writes it to its Volume passes)")
+    if (media.scatters or media.emits) and s.light_groups:
+        note = ("volumes: the light media scatter and emit goes to Combined only, not to the light groups (Cycles "
+                "writes it to the group of its light)")
         if note not in warnings:
             warnings.append(note)
     if media.scatters and s.denoising_features:
