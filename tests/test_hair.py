@@ -358,3 +358,46 @@ def test_both_kernels_render_hair_on_triangles_alike(name):
         assert abs(compiled.image.mean() / reference.image.mean() - 1.0) < 0.01
     else:
         assert_same_render(compiled, reference)
+
+
+def test_on_a_triangle_its_light_samples_behind_the_surface_are_shadowed_but_not_its_own_samples():
+    """Cycles' bump shadowing (bsdf.h) with Chiang's closure normal on a triangle, its frame's Y = X x wo: a light's
+    direction wi is zeroed where (Ns.wi)(Ns.Y)(Y.wi) < 0 (bsdf_eval), a direction the closure sampled itself is not
+    (bsdf_sample shadows only diffuse closures there), its weight f cos / pdf of the bare fibre; a diffuse closure
+    tilted off the smooth normal is shadowed at its own samples too. Both kernels."""
+    from core.materials import Closures, compiled_bsdf, eval_closures, sample_closures
+    from core.materials.lambert import Lambert
+    n = 4000
+    rng = np.random.default_rng(11)
+    params = fibre(n, 0.3, **MELANIN)
+    Y = np.cross([1.0, 0.0, 0.0], VIEW)
+    Y /= np.linalg.norm(Y)
+    u = rng.random((n, 2))
+    for kind, N, bare in ((ChiangHair.kind, Y, ChiangHair), (Lambert.kind, np.array([0.6, 0.0, 0.8]), Lambert)):
+        weight = rows(n, (0.9, 0.7, 0.5))
+        closures = Closures(np.full((n, 1), kind, np.int32), weight[:, None, :], np.full((n, 1), 0.7),
+                            rows(n, N)[:, None, :], params[:, None, :], rows(n, Z)[:, None, :])
+        s = sample_closures(closures, rows(n, VIEW), u, np.full(n, 0.5))
+        behind = (s.wi @ Z) * (Z @ N) * (s.wi @ N) < 0.0
+        assert 0.05 < behind.mean() < 0.95
+        light_f, light_pdf = eval_closures(closures, rows(n, VIEW), s.wi)
+        assert not light_f[behind].any() and not light_pdf[behind].any()
+        own = bare.sample(params, rows(n, N), rows(n, VIEW), np.column_stack([u, np.full(n, 0.5)]))
+        kept = own.pdf > 0.0
+        if bare is ChiangHair:
+            np.testing.assert_allclose(s.weight[kept], weight[kept] * own.weight[kept], rtol=1e-6)
+            np.testing.assert_allclose(s.pdf[kept], own.pdf[kept], rtol=1e-9)
+            assert s.weight[behind].min() > 0.0
+        else:
+            assert not s.weight[behind].any() and s.weight[~behind & kept].min() > 0.0
+        f_cos, pdf, sampled = compiled_bsdf(np.full(n, kind, np.int32), weight, rows(n, N), params, rows(n, VIEW),
+                                            s.wi, u, Ns=rows(n, Z))
+        np.testing.assert_allclose(f_cos, light_f, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(pdf, light_pdf, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(sampled.wi, s.wi, rtol=0, atol=1e-6)
+        behind_c = (sampled.wi @ Z) * (Z @ N) * (sampled.wi @ N) < 0.0
+        if bare is ChiangHair:
+            assert sampled.weight[behind_c & kept].min() > 0.0
+            np.testing.assert_allclose(sampled.pdf, s.pdf, rtol=1e-5, atol=1e-9)
+        else:
+            assert not sampled.weight[behind_c].any()
