@@ -401,3 +401,27 @@ def test_on_a_triangle_its_light_samples_behind_the_surface_are_shadowed_but_not
             np.testing.assert_allclose(sampled.pdf, s.pdf, rtol=1e-5, atol=1e-9)
         else:
             assert not sampled.weight[behind_c].any()
+
+
+def test_a_ribbons_rounded_normal_is_the_tubes_so_its_offset_is_minus_v():
+    """Cycles' Ribbons (curve_shader_setup) shade a flat strip with the round normal N = v B - sqrt(1 - v^2)
+    (T x B) / |T x B|, B = T x wo / |T x wo|, v across the strip (-1..1), and give Chiang's and Huang's h = -v there:
+    the h that Primer's round tube (chiang_params, huang_params from its normal) takes at the same point, for any
+    tangent and view (the Hair BSDF reads only N.wi and the tangent: a ribbon shades as the tube)."""
+    rng = np.random.default_rng(21)
+    n = 500
+    T = rng.normal(size=(n, 3))
+    T /= np.linalg.norm(T, axis=1, keepdims=True)
+    wo = rng.normal(size=(n, 3))
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    v = rng.uniform(-1.0, 1.0, n)
+    B = np.cross(T, wo)
+    B /= np.linalg.norm(B, axis=1, keepdims=True)
+    across = np.cross(T, B)
+    N = v[:, None] * B - np.sqrt(1.0 - v * v)[:, None] * across / np.linalg.norm(across, axis=1, keepdims=True)
+    p = np.array([PrincipledHairNode.row({"tangent": tuple(t)}) for t in T])
+    params = chiang_params(p, N, wo)
+    np.testing.assert_allclose(params[:, hair.H], -v, rtol=0, atol=1e-9)
+    p = np.array([HuangHairNode.row({"tangent": tuple(t), "aspect_ratio": 1.0}) for t in T])
+    np.testing.assert_allclose(huang_params(p, N, wo)[0][:, huang.H], -v, rtol=0, atol=1e-9)     # (Huang's too)
+    assert (np.einsum("ij,ij->i", N, wo) >= -1e-12).all()          # (facing the viewer, as a tube's seen side)
