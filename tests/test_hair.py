@@ -425,3 +425,23 @@ def test_a_ribbons_rounded_normal_is_the_tubes_so_its_offset_is_minus_v():
     p = np.array([HuangHairNode.row({"tangent": tuple(t), "aspect_ratio": 1.0}) for t in T])
     np.testing.assert_allclose(huang_params(p, N, wo)[0][:, huang.H], -v, rtol=0, atol=1e-9)     # (Huang's too)
     assert (np.einsum("ij,ij->i", N, wo) >= -1e-12).all()          # (facing the viewer, as a tube's seen side)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_on_triangles_its_light_passes_times_colours_make_combined(kernels):
+    """Cycles' sum rule (tests/test_passes_light.py) with Chiang's closure on triangles, whose own sampled directions
+    escape the bump shadowing against its fibre frame's normal that its light samples get: a BSDF ray sent behind the
+    smooth surface carries its light into the passes too (lightpasses.sample_shares with the sampled slot)."""
+    from core import render
+    from core.integrators.lightpasses import COLOR_OF, LIGHT_PASSES
+    wanted = LIGHT_PASSES + ("diffuse_color", "glossy_color", "transmission_color", "emission", "environment")
+    settings = RenderSettings(width=24, height=18, samples=4, integrator="path", max_bounces=3, passes=wanted,
+                              kernels=kernels)
+    result = render.render(hair_mesh_scene(NODES["chiang_melanin"]), settings)
+    p = {name: result.aux[name].astype(np.float64) for name in wanted}
+    total = p["emission"] + p["environment"]
+    for name in LIGHT_PASSES:
+        total += p[name] * p[COLOR_OF[name]]
+    combined = result.image[..., :3].astype(np.float64)
+    assert combined.max() > 0.01
+    np.testing.assert_allclose(total, combined, rtol=1e-4, atol=1e-5)
