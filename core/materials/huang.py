@@ -657,8 +657,8 @@ class HuangHairNode(Node):
 
     @staticmethod
     def setup(b, weight, p):
-        """One HuangHair closure per hit (huang_params), its normal the hit's; on a triangle Cycles' bsdf->N, its frame's
-        X (hair.fibre_normal)."""
+        """One HuangHair closure per hit (huang_params), its normal the hit's; on a triangle Cycles' bsdf->N, its
+        frame's X (hair.fibre_normal)."""
         p = per_hit_rows(p, len(weight))
         surface = surface_tangent(b, p[:, 31:34])
         weight = through_own_fibre(b, weight, surface)
