@@ -1595,19 +1595,6 @@ def shades_curves(material) -> bool:
     return False
 
 
-def shades_meshes(material) -> bool:
-    """Whether `material` (a bpy Material) is in a slot of a mesh object: where it may shade triangles."""
-    import bpy
-    target = getattr(material, "original", material)
-    return any(obj.type == "MESH" and target in slot_materials(obj) for obj in bpy.data.objects)
-
-
-# What the Principled Hair BSDF on a mesh says (docs/blender.md: Cycles' closure normal there, not modelled).
-HAIR_ON_MESH = ("on a mesh, Cycles weighs this closure's light samples by its bump shadowing against the fibre frame's "
-                "normal (X x the view direction), which Primer does not: the hair reads up to a few % brighter over "
-                "part of a curved mesh (measured 2 %), more where a sharp lobe catches a sun")
-
-
 def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
     """Append the Principled Hair BSDF (Chiang's model, hair.PrincipledHairNode; Huang's, huang.HuangHairNode): its
     sockets per hit where linked, the curve's tangent (and for Huang's its normal, the major axis), Random from Curves
@@ -1619,8 +1606,6 @@ def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, fa
     random = node.inputs.get("Random")
     inputs.update(hair_.curve_links())
     inputs.update(hair_.mesh_links("triangle_dpdu"))              # (on meshes: Cycles' dPdu, Chiang's Ng)
-    if reader.kind == "material" and shades_meshes(reader.material):
-        reader.warn(node, HAIR_ON_MESH)
     if random is not None and random.is_linked:
         inputs["random"] = reader.input(node, "Random", 0.0)
     if getattr(node, "model", "CHIANG") == "HUANG":

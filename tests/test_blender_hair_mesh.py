@@ -3,6 +3,8 @@
 On a triangle Cycles' hair closures take their fibre from the triangle's edges: the Principled Hair BSDF (Chiang's
 and Huang's models) along dPdu = p1 - p0, the Hair BSDF along dPdv = p2 - p0 with no offset, both in world space
 and turned with the normal where the ray meets the triangle from behind, whose back faces scatter as their front.
+The Principled Hair BSDF's closure normal there is its fibre frame's axis across the tangent and the view, not the
+surface's, so Cycles' bump shadowing zeroes its light samples behind the smooth surface (not its own samples).
 A smooth-shaded UV sphere (rotated, stretched; Chiang's h from the triangle's true normal Ng, Huang's from
 the smooth normal) and a sheet seen from behind, lit by a sun and a grey world, wear each
 hair material in turn.
@@ -103,16 +105,16 @@ def renders(tmp_path_factory):
 
 
 # The block relMSE each case stays under (measured, with margin for the two renders' noise).
-BOUNDS = {"hair_reflection": 1e-4, "hair_transmission": 1e-4, "chiang_melanin": 1e-3, "chiang_absorption": 1e-3,
-          "huang": 1e-3}
+BOUNDS = {"hair_reflection": 1e-4, "hair_transmission": 1e-4, "chiang_melanin": 1.5e-4, "chiang_absorption": 1.5e-4,
+          "huang": 3e-4}
 
 
 @pytest.mark.parametrize("case", CASES)
 def test_a_hair_bsdf_on_a_mesh_takes_its_fibre_from_the_triangles_edges_as_cycles(case, renders):
     """Each hair material on a smooth-shaded sphere and a sheet seen from behind: block relMSE against Cycles within
-    BOUNDS; the Hair BSDF says nothing, the Principled Hair BSDF (Chiang's and Huang's) says once that Cycles' bump
-    shadowing against its fibre frame is not modelled on meshes (its few % brighter), and Huang's note on curves'
-    elliptical fibres is not drawn by a material on meshes alone."""
+    BOUNDS (the Principled Hair BSDF's light samples shadowed by Cycles' bump shadowing against its fibre frame's
+    normal, its own sampled directions not), and nothing said: Huang's note on curves' elliptical fibres is not drawn
+    by a material on meshes alone."""
     folder, warnings = renders
     primer, cycles = np.load(folder / f"{case}_primer.npy"), np.load(folder / f"{case}_cycles.npy")
     error = relative_mse_of_blocks(primer, cycles)
@@ -121,7 +123,5 @@ def test_a_hair_bsdf_on_a_mesh_takes_its_fibre_from_the_triangles_edges_as_cycle
     print(case, "block relMSE", error, "surface pixels", lit.mean(), "mean ratio", ratio, warnings[case])
     assert lit.mean() > 0.2
     # (Huang's default Aspect Ratio, 0.85, would draw the note on curves' elliptical fibres; a triangle's are round)
-    said = [w for w in warnings[case] if "on a mesh" in w]
-    assert len(said) == (0 if case.startswith("hair_") else 1), warnings[case]
-    assert not [w for w in warnings[case] if w not in said], warnings[case]
+    assert not warnings[case], warnings[case]
     assert error < BOUNDS[case]

@@ -358,3 +358,90 @@ def test_both_kernels_render_hair_on_triangles_alike(name):
         assert abs(compiled.image.mean() / reference.image.mean() - 1.0) < 0.01
     else:
         assert_same_render(compiled, reference)
+
+
+def test_on_a_triangle_its_light_samples_behind_the_surface_are_shadowed_but_not_its_own_samples():
+    """Cycles' bump shadowing (bsdf.h) with Chiang's closure normal on a triangle, its frame's Y = X x wo: a light's
+    direction wi is zeroed where (Ns.wi)(Ns.Y)(Y.wi) < 0 (bsdf_eval), a direction the closure sampled itself is not
+    (bsdf_sample shadows only diffuse closures there), its weight f cos / pdf of the bare fibre; a diffuse closure
+    tilted off the smooth normal is shadowed at its own samples too. Both kernels."""
+    from core.materials import Closures, compiled_bsdf, eval_closures, sample_closures
+    from core.materials.lambert import Lambert
+    n = 4000
+    rng = np.random.default_rng(11)
+    params = fibre(n, 0.3, **MELANIN)
+    Y = np.cross([1.0, 0.0, 0.0], VIEW)
+    Y /= np.linalg.norm(Y)
+    u = rng.random((n, 2))
+    for kind, N, bare in ((ChiangHair.kind, Y, ChiangHair), (Lambert.kind, np.array([0.6, 0.0, 0.8]), Lambert)):
+        weight = rows(n, (0.9, 0.7, 0.5))
+        closures = Closures(np.full((n, 1), kind, np.int32), weight[:, None, :], np.full((n, 1), 0.7),
+                            rows(n, N)[:, None, :], params[:, None, :], rows(n, Z)[:, None, :])
+        s = sample_closures(closures, rows(n, VIEW), u, np.full(n, 0.5))
+        behind = (s.wi @ Z) * (Z @ N) * (s.wi @ N) < 0.0
+        assert 0.05 < behind.mean() < 0.95
+        light_f, light_pdf = eval_closures(closures, rows(n, VIEW), s.wi)
+        assert not light_f[behind].any() and not light_pdf[behind].any()
+        own = bare.sample(params, rows(n, N), rows(n, VIEW), np.column_stack([u, np.full(n, 0.5)]))
+        kept = own.pdf > 0.0
+        if bare is ChiangHair:
+            np.testing.assert_allclose(s.weight[kept], weight[kept] * own.weight[kept], rtol=1e-6)
+            np.testing.assert_allclose(s.pdf[kept], own.pdf[kept], rtol=1e-9)
+            assert s.weight[behind].min() > 0.0
+        else:
+            assert not s.weight[behind].any() and s.weight[~behind & kept].min() > 0.0
+        f_cos, pdf, sampled = compiled_bsdf(np.full(n, kind, np.int32), weight, rows(n, N), params, rows(n, VIEW),
+                                            s.wi, u, Ns=rows(n, Z))
+        np.testing.assert_allclose(f_cos, light_f, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(pdf, light_pdf, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(sampled.wi, s.wi, rtol=0, atol=1e-6)
+        behind_c = (sampled.wi @ Z) * (Z @ N) * (sampled.wi @ N) < 0.0
+        if bare is ChiangHair:
+            assert sampled.weight[behind_c & kept].min() > 0.0
+            np.testing.assert_allclose(sampled.pdf, s.pdf, rtol=1e-5, atol=1e-9)
+        else:
+            assert not sampled.weight[behind_c].any()
+
+
+def test_a_ribbons_rounded_normal_is_the_tubes_so_its_offset_is_minus_v():
+    """Cycles' Ribbons (curve_shader_setup) shade a flat strip with the round normal N = v B - sqrt(1 - v^2)
+    (T x B) / |T x B|, B = T x wo / |T x wo|, v across the strip (-1..1), and give Chiang's and Huang's h = -v there:
+    the h that Primer's round tube (chiang_params, huang_params from its normal) takes at the same point, for any
+    tangent and view (the Hair BSDF reads only N.wi and the tangent: a ribbon shades as the tube)."""
+    rng = np.random.default_rng(21)
+    n = 500
+    T = rng.normal(size=(n, 3))
+    T /= np.linalg.norm(T, axis=1, keepdims=True)
+    wo = rng.normal(size=(n, 3))
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    v = rng.uniform(-1.0, 1.0, n)
+    B = np.cross(T, wo)
+    B /= np.linalg.norm(B, axis=1, keepdims=True)
+    across = np.cross(T, B)
+    N = v[:, None] * B - np.sqrt(1.0 - v * v)[:, None] * across / np.linalg.norm(across, axis=1, keepdims=True)
+    p = np.array([PrincipledHairNode.row({"tangent": tuple(t)}) for t in T])
+    params = chiang_params(p, N, wo)
+    np.testing.assert_allclose(params[:, hair.H], -v, rtol=0, atol=1e-9)
+    p = np.array([HuangHairNode.row({"tangent": tuple(t), "aspect_ratio": 1.0}) for t in T])
+    np.testing.assert_allclose(huang_params(p, N, wo)[0][:, huang.H], -v, rtol=0, atol=1e-9)     # (Huang's too)
+    assert (np.einsum("ij,ij->i", N, wo) >= -1e-12).all()          # (facing the viewer, as a tube's seen side)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_on_triangles_its_light_passes_times_colours_make_combined(kernels):
+    """Cycles' sum rule (tests/test_passes_light.py) with Chiang's closure on triangles, whose own sampled directions
+    escape the bump shadowing against its fibre frame's normal that its light samples get: a BSDF ray sent behind the
+    smooth surface carries its light into the passes too (lightpasses.sample_shares with the sampled slot)."""
+    from core import render
+    from core.integrators.lightpasses import COLOR_OF, LIGHT_PASSES
+    wanted = LIGHT_PASSES + ("diffuse_color", "glossy_color", "transmission_color", "emission", "environment")
+    settings = RenderSettings(width=24, height=18, samples=4, integrator="path", max_bounces=3, passes=wanted,
+                              kernels=kernels)
+    result = render.render(hair_mesh_scene(NODES["chiang_melanin"]), settings)
+    p = {name: result.aux[name].astype(np.float64) for name in wanted}
+    total = p["emission"] + p["environment"]
+    for name in LIGHT_PASSES:
+        total += p[name] * (p[COLOR_OF[name]] if name in COLOR_OF else 1.0)
+    combined = result.image[..., :3].astype(np.float64)
+    assert combined.max() > 0.01
+    np.testing.assert_allclose(total, combined, rtol=1e-4, atol=1e-5)

@@ -552,7 +552,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
                 if (H->bounce[h] != 0) continue;
                 double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, shares[PASS_KINDS][3], got[3];
                 for (int c = 0; c < 3; c++) got[c] = value[lane][c] * T[lane][c];
-                kind_shares(H->sd + h, H->wo + 3 * h, L, b->hidden[k], shares);
+                kind_shares(H->sd + h, H->wo + 3 * h, L, b->hidden[k], -1, shares);
                 add_split(parts[h], got, &shares[0][0]);
             }
         }

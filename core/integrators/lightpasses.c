@@ -17,9 +17,10 @@ INLINE int pass_kind(const Closure *c, const double *wo, const double *wi)
     return -1;
 }
 
-/* lightpasses.kind_shares for one hit: each pass kind's part of the closures' f cos at wi (shader_eval_seen,
- * the same closures left out for `hidden`) over all kinds' parts, per channel; 0 where that sum is 0. */
-INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *wi, int hidden,
+/* lightpasses.kind_shares for one hit: each pass kind's part of the closures' f cos at wi (shader_eval_sampled,
+ * the same closures left out for `hidden`, the closure in slot `sampled` the one that sampled wi, -1: none) over
+ * all kinds' parts, per channel; 0 where that sum is 0. */
+INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *wi, int hidden, int sampled,
                         double shares[PASS_KINDS][3])
 {
     double total[3] = {0.0, 0.0, 0.0};
@@ -30,11 +31,9 @@ INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *
         if (p < 0 || closure_left_out(c->kind, hidden)) continue;
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
-        if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, wi,
-                                         bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE) && !sd->uncorrected);
+        double term = closure_shadowing(sd, c, wi, k != sampled);
+        if (term != 1.0)
             for (int j = 0; j < 3; j++) value[j] *= term;
-        }
         for (int j = 0; j < 3; j++) shares[p][j] += c->weight[j] * value[j];
     }
     for (int p = 0; p < PASS_KINDS; p++)
@@ -50,7 +49,7 @@ INLINE void sample_shares(const ShaderResult *sd, const double *wo, const Closur
                           double shares[PASS_KINDS][3])
 {
     if (!s->delta) {
-        kind_shares(sd, wo, s->wi, 0, shares);
+        kind_shares(sd, wo, s->wi, 0, s->slot, shares);
         return;
     }
     for (int p = 0; p < PASS_KINDS; p++) shares[p][0] = shares[p][1] = shares[p][2] = 0.0;

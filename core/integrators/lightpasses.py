@@ -95,27 +95,28 @@ def closure_kinds(kind: np.ndarray, N: np.ndarray, wo: np.ndarray, wi: np.ndarra
 
 
 def kind_shares(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cosine: bool = False,
-                left_out=None) -> np.ndarray:
+                left_out=None, sampled=None) -> np.ndarray:
     """Return each pass kind's share (n, KINDS, 3) float64 of the closures' f cos (eval_closures, same arguments)
     for light from wi (n, 3) towards wo (n, 3): its closures' f cos over all closures', per channel; 0 where the
     closures' f cos is 0."""
     kinds = closure_kinds(closures.kind, closures.N, wo, wi)
     left = np.zeros(kinds.shape, bool) if left_out is None else np.asarray(left_out, bool)
-    parts = np.stack([eval_closures(closures, wo, wi, signed_cosine, left | (kinds != k))[0] for k in range(KINDS)],
-                     axis=1)
+    parts = np.stack([eval_closures(closures, wo, wi, signed_cosine, left | (kinds != k), sampled)[0]
+                      for k in range(KINDS)], axis=1)
     total = parts.sum(axis=1, keepdims=True)
     return np.divide(parts, total, out=np.zeros_like(parts), where=total != 0.0)
 
 
 def sample_shares(closures: Closures, wo: np.ndarray, wi: np.ndarray, kind: np.ndarray, delta: np.ndarray,
-                  transmit: np.ndarray) -> np.ndarray:
+                  transmit: np.ndarray, slot=None) -> np.ndarray:
     """Return the pass kinds' shares (k, KINDS, 3) of BSDF-sampled rays: kind_shares at the sampled direction wi
     (k, 3), or for a delta closure (delta (k,) bool) its own pass kind alone (closure_kinds; smooth glass glossy or
     transmission by the side the ray leaves to, transmit (k,) bool); none for a Transparent closure's ray.
 
-    closures: the k hits' Closures; wo (k, 3); kind (k,) int the sampled closures' BSDF kinds."""
+    closures: the k hits' Closures; wo (k, 3); kind (k,) int the sampled closures' BSDF kinds; slot (k,) int their
+    slots (eval_closures' sampled: the sampling closure's own direction as sample_closures shadows it), or None."""
     F = materials_.BSDFFlags
-    shares = kind_shares(closures, wo, wi)
+    shares = kind_shares(closures, wo, wi, sampled=slot)
     flags = materials_.flags_of(kind)
     glass = (flags & F.GLASS_TYPE) != 0
     one = np.zeros_like(shares)

@@ -275,7 +275,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             found += finds
         if parts is not None and ray is not None:
             c = shader.closures.rows(ray.rows)
-            parts.ray_shares = lightpasses.sample_shares(c, wo[ray.rows], ray.D, ray.kind, ray.delta, ray.transmit)
+            parts.ray_shares = lightpasses.sample_shares(c, wo[ray.rows], ray.D, ray.kind, ray.delta, ray.transmit,
+                                                         ray.slot)
             parts.gathered[ray.rows] += lightpasses.split(finds[ray.rows], parts.ray_shares)
     return L_out, shadow_rays, ray
 
@@ -396,7 +397,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         if len(walks):
             attenuation[walks] = 1.0                     # (the walk's ray is no ray through the medium outside)
     ray = BsdfRay(go, O, D, hits, weight, bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
-                  after, ray_inside, attenuation, receiver)
+                  after, ray_inside, attenuation, receiver, bs.slot[go])
     for kind, mask in (("reflect", ~ray.transmit & ~portal), ("refract", ray.transmit & ~portal), ("portal", portal)):
         if mask.any():
             recorder.rays(kind, O[mask], D[mask], t_hit[mask])
@@ -737,7 +738,8 @@ class BsdfRay(NamedTuple):
     ray went straight through a transparent surface); path: the graph.LightPaths each ray carries on (path_after);
     inside (k, V) the media the ray is in (None: no media), and attenuation (k, 3) what they let through to the hit
     (None: 1); receiver (k,) int64 the triangle each ray left, whose object decides which emitters its finds may
-    light (Light Linking)
+    light (Light Linking); slot (k,) int64 the sampled closure's slot (None: unknown), its own direction's bump
+    shadowing as sampled (lightpasses.sample_shares)
     """
 
     rows: np.ndarray
@@ -756,6 +758,7 @@ class BsdfRay(NamedTuple):
     inside: np.ndarray = None
     attenuation: np.ndarray = None
     receiver: np.ndarray = None
+    slot: np.ndarray = None
 
 
 def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:

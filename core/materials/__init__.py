@@ -568,6 +568,7 @@ BsdfArgs = schema.function("primer_bsdf", "bsdf_rows", schema.record(
         ("kind", schema.ptr(schema.I32), "(n,) BSDF_*"),
         ("weight", schema.ptr(schema.F64), "(n, 3)"),
         ("N", schema.ptr(schema.F64), "(n, 3)"),
+        ("Ns", schema.ptr(schema.F64), "(n, 3) the hit's smooth normal (sd->N: bump shadowing where it is not N)"),
         ("params", schema.ptr(schema.F64), "(n, CLOSURE_PARAMS)"),
         ("wo", schema.ptr(schema.F64), "(n, 3)"),
         ("wi", schema.ptr(schema.F64), "(n, 3)"),
@@ -581,16 +582,18 @@ BsdfArgs = schema.function("primer_bsdf", "bsdf_rows", schema.record(
 
 
 def compiled_bsdf(kind: np.ndarray, weight: np.ndarray, N: np.ndarray, params: np.ndarray, wo: np.ndarray,
-                  wi: np.ndarray, u: np.ndarray) -> tuple:
+                  wi: np.ndarray, u: np.ndarray, Ns=None) -> tuple:
     """One closure per row in C (the generated BSDF table), for the tests: eval and a sample of a ShaderResult
-    holding only that closure -> f cos (n, 3), pdf (n,), ClosureSample (pick 0.5)."""
+    holding only that closure -> f cos (n, 3), pdf (n,), ClosureSample (pick 0.5). Ns: (n, 3) the hits' smooth
+    normal (closures.bump_shadowing where it is not the closure's N), or None: N."""
     from ..native import library
     n = len(kind)
     c = library.contiguous
     f_cos, pdf, sampled, sampled_weight, sampled_pdf = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)),
                                                        np.empty((n, 3)), np.empty(n))
     library.call("primer_bsdf", BsdfArgs(
-        n=n, kind=c(kind, np.int32), weight=c(weight, np.float64), N=c(N, np.float64), params=c(params, np.float64),
+        n=n, kind=c(kind, np.int32), weight=c(weight, np.float64), N=c(N, np.float64),
+        Ns=c(N if Ns is None else Ns, np.float64), params=c(params, np.float64),
         wo=c(wo, np.float64), wi=c(wi, np.float64), u=c(u, np.float64), f_cos=f_cos, pdf=pdf, sampled=sampled,
         sampled_weight=sampled_weight, sampled_pdf=sampled_pdf))
     return f_cos, pdf, ClosureSample(sampled, sampled_weight, sampled_pdf, np.isinf(sampled_pdf))

@@ -69,9 +69,21 @@ INLINE int closure_left_out(int kind, int hidden)
            || (bsdf_is(kind, BSDF_FLAG_GLASS_TYPE) && (hidden & both) == both);
 }
 
+/* closures.bump_shadowing of closure c at wi: 1 where its normal is the hit's; is_eval 0 where c sampled wi itself
+ * (Cycles' bsdf_sample: a non-diffuse closure is not shadowed there). */
+INLINE double closure_shadowing(const ShaderResult *sd, const Closure *c, const double *wi, int is_eval)
+{
+    if (c->N[0] == sd->N[0] && c->N[1] == sd->N[1] && c->N[2] == sd->N[2]) return 1.0;
+    int diffuse = bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE);
+    if (!is_eval && !diffuse) return 1.0;
+    return bump_shadowing(sd->N, c->N, wi, diffuse && !sd->uncorrected);     /* (softened: Bump Map Correction) */
+}
+
 /* shader_eval for a light sample on an object hidden from the rays `hidden` (0: none): the closures it leaves
- * out add neither f cos nor pdf, their sampling weight still counts (closures.eval_closures' left_out). */
-INLINE double shader_eval_seen(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos, int hidden)
+ * out add neither f cos nor pdf, their sampling weight still counts (closures.eval_closures' left_out); the closure
+ * in slot `sampled` (-1: none) the one that sampled wi (eval_closures' sampled: closure_shadowing's is_eval 0). */
+INLINE double shader_eval_sampled(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos,
+                                  int hidden, int sampled)
 {
     double numerator = 0.0, total = 0.0;
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
@@ -80,9 +92,8 @@ INLINE double shader_eval_seen(const ShaderResult *sd, const double *wo, const d
         if (closure_left_out(c->kind, hidden)) continue;
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
-        if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, wi,
-                                         bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE) && !sd->uncorrected);
+        double term = closure_shadowing(sd, c, wi, k != sampled);
+        if (term != 1.0) {
             for (int j = 0; j < 3; j++) value[j] *= term;
             if (term == 0.0) pdf = 0.0;
         }
@@ -95,6 +106,12 @@ INLINE double shader_eval_seen(const ShaderResult *sd, const double *wo, const d
     }
     for (int k = 0; k < sd->n; k++) total += sd->c[k].sample_weight;
     return total > 0.0 ? numerator / total : 0.0;
+}
+
+/* shader_eval_sampled of a light's direction (no closure sampled it). */
+INLINE double shader_eval_seen(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos, int hidden)
+{
+    return shader_eval_sampled(sd, wo, wi, f_cos, hidden, -1);
 }
 
 INLINE double shader_eval(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos)
@@ -151,14 +168,13 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     }
     if (!(s.pdf > 0.0)) { out->kind = -1; return; }
     double f_cos[3];
-    double pdf = shader_eval(sd, wo, out->wi, f_cos);
+    double pdf = shader_eval_sampled(sd, wo, out->wi, f_cos, 0, chosen);
     if (bsdf_is(c->kind, BSDF_FLAG_OWN_WEIGHT)) {       /* closures.own_weight: its sample's share, not its eval's */
         double f_e[3], pdf_e, f_s[3], pdf_s = s.pdf;
         bsdf_eval(c, wo, out->wi, f_e, &pdf_e);
         for (int j = 0; j < 3; j++) f_s[j] = s.weight[j] * s.pdf;
-        if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, out->wi,
-                                         bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE) && !sd->uncorrected);
+        double term = closure_shadowing(sd, c, out->wi, 0);
+        if (term != 1.0) {
             for (int j = 0; j < 3; j++) { f_e[j] *= term; f_s[j] *= term; }
             if (term == 0.0) { pdf_e = 0.0; pdf_s = 0.0; }
         }
@@ -207,7 +223,7 @@ INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResul
     }
 }
 
-/* eval and sample of one closure per row (for the tests): kind (n,) int32; weight, N, wo, wi (n, 3),
+/* eval and sample of one closure per row (for the tests): kind (n,) int32; weight, N, Ns (the hit's), wo, wi (n, 3),
  * params (n, PARAMS), u (n, 2), pick (n,) float64 -> f_cos (n, 3), pdf (n,), and a sample from the
  * single closure: sampled wi (n, 3), weight (n, 3), sampled pdf (n,). */
 static void bsdf_rows(const BsdfArgs *a)
@@ -222,7 +238,7 @@ static void bsdf_rows(const BsdfArgs *a)
         Closure *c = sd.c;
         c->kind = a->kind[i];
         c->sample_weight = fabs((weight[0] + weight[1] + weight[2]) / 3.0);
-        for (int j = 0; j < 3; j++) { c->weight[j] = weight[j]; c->N[j] = N[j]; sd.N[j] = N[j]; }
+        for (int j = 0; j < 3; j++) { c->weight[j] = weight[j]; c->N[j] = N[j]; sd.N[j] = a->Ns[3 * i + j]; }
         c->p = a->params + CLOSURE_PARAMS * i;
         a->pdf[i] = shader_eval(&sd, wo, a->wi + 3 * i, a->f_cos + 3 * i);
         ClosureSample s;

@@ -98,12 +98,14 @@ def each_kind(closures: Closures, slot: int):
 
 
 def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cosine: bool = False,
-                  left_out=None):
+                  left_out=None, sampled=None):
     """Return (f cos (n, 3), pdf (n,)): sum of weight x f cos, and the sampling-weighted mean pdf.
 
     wo, wi: (n, 3) float64 unit. signed_cosine: diffuse closures keep N.wi < 0 (a lecture switch). left_out:
     (n, K) bool closures that add neither f cos nor pdf (their sampling weight still counts in the mean, as in
-    Cycles: a light sample of an object hidden from their kind of ray), or None.
+    Cycles: a light sample of an object hidden from their kind of ray), or None. sampled: (n,) int the slot of the
+    closure that sampled wi (sample_closures), or None: that closure's own direction is shadowed as Cycles'
+    bsdf_sample shadows it (`bump_shadowing` with is_eval false: not at all unless diffuse).
     """
     n, slots = closures.kind.shape
     f_cos, numerator = np.zeros((n, 3)), np.zeros(n)
@@ -113,7 +115,8 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
             value, pdf = bsdf.eval(*args, signed_cosine=True) if signed_cosine and bsdf is Lambert else bsdf.eval(*args)
             if closures.Ns is not None:
                 term = bump_shadowing(closures.Ns[rows, k], closures.N[rows, k], wi[rows], bsdf.is_(F.DIFFUSE_TYPE),
-                                      corrected(closures, rows))
+                                      corrected(closures, rows),
+                                      is_eval=None if sampled is None else sampled[rows] != k)
                 if term is not None:
                     value = value * term[:, None]
                     pdf = np.where(term == 0.0, 0.0, pdf)
@@ -151,14 +154,18 @@ def corrected(closures: Closures, rows) -> Optional[np.ndarray]:
     return None if closures.uncorrected is None else ~closures.uncorrected[rows]
 
 
-def bump_shadowing(Ns: np.ndarray, N: np.ndarray, wi: np.ndarray, diffuse: bool, corrected=None):
+def bump_shadowing(Ns: np.ndarray, N: np.ndarray, wi: np.ndarray, diffuse: bool, corrected=None, is_eval=None):
     """Cycles' bump shadowing term (kernel/closure/bsdf.h) for closures whose normal N (m, 3) differs from the
     smooth normal Ns (m, 3), light from wi (m, 3): 0 where wi and N lie on different sides of the smooth
     surface; for diffuse closures whose material has Bump Map Correction on (`corrected` (m,) bool, None: all), the
     GGX masking G1 of a roughness that grows with the angle between N and Ns at cos_i = |Ns.wi| ("A
-    Microfacet-Based Shadowing Function to Solve the Bump Terminator Problem", Conty Estevez et al.). Returns the
-    term (m,), or None where every N is Ns (nothing to do)."""
+    Microfacet-Based Shadowing Function to Solve the Bump Terminator Problem", Conty Estevez et al.). is_eval: (m,)
+    bool whether wi is a light's direction (bsdf_eval) rather than one the closure sampled itself (bsdf_sample: a
+    non-diffuse closure is not shadowed there), or None: all are. Returns the term (m,), or None where every N is
+    Ns (nothing to do)."""
     differs = ~np.all(N == Ns, axis=1) & np.any(Ns != 0.0, axis=1)      # (zeros: no smooth normal given)
+    if not diffuse and is_eval is not None:
+        differs &= is_eval
     if not differs.any():
         return None
     cos_si = np.einsum("ij,ij->i", Ns, wi)
@@ -199,7 +206,7 @@ def own_weight(closures: Closures, wo: np.ndarray, wi: np.ndarray, total: np.nda
                f_cos: np.ndarray, pdf: np.ndarray) -> tuple:
     """The mixture's (f cos (m, 3), pdf (m,)) at the sampled directions of the rows `smooth` (m,), with each sampled
     OWN_WEIGHT closure's eval there (own: (bsdf, rows, slots, sample) per kind) replaced by its sample's f cos and pdf
-    (BSDFFlags.OWN_WEIGHT), bump shadowing as eval_closures applies it."""
+    (BSDFFlags.OWN_WEIGHT), bump shadowing as eval_closures applies it to the closure that sampled the direction."""
     if not own:
         return f_cos, pdf
     f_cos, pdf = f_cos.copy(), pdf.copy()
@@ -212,7 +219,7 @@ def own_weight(closures: Closures, wo: np.ndarray, wi: np.ndarray, total: np.nda
         f_s = s_weight * s_pdf[:, None]
         if closures.Ns is not None:
             term = bump_shadowing(closures.Ns[at, c], closures.N[at, c], wi[at], bsdf.is_(F.DIFFUSE_TYPE),
-                                  corrected(closures, at))
+                                  corrected(closures, at), is_eval=np.zeros(len(at), bool))
             if term is not None:
                 f_e, f_s = f_e * term[:, None], f_s * term[:, None]
                 pdf_e, s_pdf = np.where(term == 0.0, 0.0, pdf_e), np.where(term == 0.0, 0.0, s_pdf)
@@ -266,7 +273,7 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
     smooth = np.flatnonzero(~delta & (pdf > 0))
     if len(smooth):
         part = closures.rows(smooth)
-        f_cos, combined = eval_closures(part, wo[smooth], wi[smooth])
+        f_cos, combined = eval_closures(part, wo[smooth], wi[smooth], sampled=chosen[smooth])
         f_cos, combined = own_weight(closures, wo, wi, total, own, smooth, f_cos, combined)
         weight[smooth] = np.divide(f_cos, combined[:, None], out=np.zeros_like(f_cos), where=combined[:, None] > 0)
         pdf[smooth] = combined

@@ -538,10 +538,14 @@ class PrincipledHairNode(Node):
 
     @staticmethod
     def setup(b, weight, p):
-        """One ChiangHair closure per hit (chiang_params), its normal the hit's; on a triangle its frame from dPdu."""
+        """One ChiangHair closure per hit (chiang_params), its normal the hit's; on a triangle its frame from dPdu
+        and its normal Cycles' bsdf->N, the frame's Y = X x wo (shadowed where it differs from the hit's:
+        closures.bump_shadowing)."""
         p = per_hit_rows(p, len(weight))
         surface = surface_tangent(b, p[:, 23:26])
-        b.add(ChiangHair.kind, through_own_fibre(b, weight, surface), chiang_params(p, b.N, b.wo, surface))
+        rows = chiang_params(p, b.N, b.wo, surface)
+        b.add(ChiangHair.kind, through_own_fibre(b, weight, surface), rows,
+              N=fibre_normal(b.N, surface, safe_normalize(vectors.cross(rows[:, TANGENT:TANGENT + 3], b.wo))))
 
 
 class HairNode(Node):
@@ -575,6 +579,14 @@ class HairNode(Node):
             T = np.where(none[:, None], vectors.orthonormal_frame(b.N)[0], T)
         out[:, HAIR_TANGENT:HAIR_TANGENT + 3] = T
         b.add(kind, through_own_fibre(b, weight, surface) * np.maximum(p[:, 7:10], 0.0), out)
+
+
+def fibre_normal(N: np.ndarray, surface: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """A principled hair closure's normal (n, 3): on a triangle (surface (n, 3) nonzero: surface_tangent) Cycles'
+    bsdf->N, its fibre frame's axis across the tangent and the view (axis (n, 3) unit: Chiang's Y, Huang's X), the
+    hit's N (n, 3) elsewhere and where that axis is degenerate (Cycles skips bump shadowing on curves)."""
+    mesh = np.any(surface != 0.0, axis=1) & np.any(axis != 0.0, axis=1)
+    return np.where(mesh[:, None], axis, N)
 
 
 def surface_tangent(b, edge: np.ndarray) -> np.ndarray:

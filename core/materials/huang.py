@@ -41,7 +41,7 @@ from . import ggx_tables
 from .base import BSDF, BsdfSample, PARAMS
 from .base import BSDFFlags as F
 from .hair import (PRINCIPLED_HAIR_DEFAULTS, PRINCIPLED_HAIR_INPUTS, fresnel_cos, longitudinal, safe_normalize,
-                   surface_tangent, through_own_fibre, hair_sigma)
+                   surface_tangent, through_own_fibre, hair_sigma, fibre_normal)
 from .microfacet import D_ggx, lambda_ggx
 from .nodes import Node, per_hit_rows
 
@@ -657,7 +657,8 @@ class HuangHairNode(Node):
 
     @staticmethod
     def setup(b, weight, p):
-        """One HuangHair closure per hit (huang_params), its normal the hit's."""
+        """One HuangHair closure per hit (huang_params), its normal the hit's; on a triangle Cycles' bsdf->N, its
+        frame's X (hair.fibre_normal)."""
         p = per_hit_rows(p, len(weight))
         surface = surface_tangent(b, p[:, 31:34])
         weight = through_own_fibre(b, weight, surface)
@@ -665,7 +666,7 @@ class HuangHairNode(Node):
         keep = np.any(p[:, 24:27] > 0.0, axis=1)
         b.transparency += np.where((outside & keep)[:, None], weight, 0.0)
         weight = np.where((outside | ~keep)[:, None], 0.0, weight)
-        b.add(HuangHair.kind, weight, rows)
+        b.add(HuangHair.kind, weight, rows, N=fibre_normal(b.N, surface, rows[:, AXIS_X:AXIS_X + 3]))
 
 
 def huang_links() -> dict:

@@ -628,6 +628,14 @@ static NOINLINE int hair_surface_tangent(const double *p, int at, int backfacing
     return S[0] != 0.0 || S[1] != 0.0 || S[2] != 0.0;
 }
 
+/* hair.fibre_normal for the closure closure_add set up in slot `slot` (if it did) on a triangle: its normal Cycles'
+ * bsdf->N, the fibre frame's axis across the tangent and the view (unless degenerate). */
+static NOINLINE void hair_fibre_normal(ShaderResult *sd, int slot, const double *axis)
+{
+    if (sd->n <= slot || (axis[0] == 0.0 && axis[1] == 0.0 && axis[2] == 0.0)) return;
+    for (int k = 0; k < 3; k++) sd->c[slot].N[k] = axis[k];
+}
+
 /* hair.PrincipledHairNode.setup (hair.chiang_params) for one hit: a Chiang closure of the node's weight; h from the
  * hit's normal sd->N (Cycles' Ng of a thick curve), the curve's tangent and the view; on a triangle from its dPdu
  * and dPdv (p + 23, p + 26). */
@@ -675,7 +683,9 @@ INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, 
     cross3(Ng, X, c);
     v[HAIR_H] = dot3(c, Z);
     for (int k = 0; k < 3; k++) v[HAIR_X + k] = X[k];
+    int before = sd->n;
     closure_add(sd, BSDF_CHIANG_HAIR, weight, weight, 1.0, v);
+    if (mesh) hair_fibre_normal(sd, before, Y);
 }
 
 /* huang.HuangHairNode.setup (huang.huang_params) for one hit: a Huang closure of the node's weight, none where its
@@ -740,7 +750,9 @@ INLINE void principled_hair_huang_node(ShaderResult *sd, double mu, const double
         v[HUANG_X + k] = A[k]; v[HUANG_Y + k] = Y[k];
     }
     v[HUANG_COVERAGE] = p[30] > 0.0 ? p[30] : 1.0;
+    int before = sd->n;
     closure_add(sd, BSDF_HUANG_HAIR, weight, weight, 1.0, v);
+    if (mesh) hair_fibre_normal(sd, before, A);
 }
 
 /* hair.HairNode.setup for one hit: a Reflection or Transmission closure (p: offset, roughness_u, roughness_v,

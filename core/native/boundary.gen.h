@@ -1108,6 +1108,7 @@ struct BsdfArgs {
     const int32_t *kind;                    /* (n,) BSDF_* */
     const double *weight;                   /* (n, 3) */
     const double *N;                        /* (n, 3) */
+    const double *Ns;                       /* (n, 3) the hit's smooth normal (sd->N: bump shadowing where it is not N) */
     const double *params;                   /* (n, CLOSURE_PARAMS) */
     const double *wo;                       /* (n, 3) */
     const double *wi;                       /* (n, 3) */
@@ -1338,7 +1339,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(6964717275989497168);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
-    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(1988518437441009220);
+    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7643680578507821954);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1461087652967974442);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(4007604432967340938);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
