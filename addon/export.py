@@ -1304,6 +1304,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         denoising_features=bool(props.use_denoising),
         passes=tuple(passes),
         ao_distance=_ao_distance(scene),
+        **_fast_gi(scene, props),
         **_mist(scene),
     )
 
@@ -1408,6 +1409,20 @@ def _ao_distance(scene) -> float:
     world = scene.world
     settings = getattr(world, "light_settings", None) if world is not None else None
     return float(getattr(settings, "distance", 10.0)) if settings is not None else 10.0
+
+
+def _fast_gi(scene, props) -> dict:
+    """Cycles' Fast GI Approximation, Replace (RenderSettings ao_bounces, ao_factor), where the render follows the
+    scene's Cycles settings (props: cycles_settings.Effective; Primer's own settings have no Fast GI, and
+    unmodelled.render_notes says so): AO Bounces and the world's AO Factor (no world: factor 0, off, as Cycles' sync).
+    Add mode changes no path (Cycles' ao_additive_factor: noted by unmodelled.render_notes)."""
+    cycles = getattr(scene, "cycles", None)
+    if not (getattr(props, "follows_cycles", False) and getattr(cycles, "use_fast_gi", False)
+            and getattr(cycles, "fast_gi_method", "REPLACE") == "REPLACE"):
+        return {}
+    settings = getattr(scene.world, "light_settings", None) if scene.world is not None else None
+    return dict(ao_bounces=int(getattr(cycles, "ao_bounces_render", 1)),
+                ao_factor=float(getattr(settings, "ao_factor", 0.0)) if settings is not None else 0.0)
 
 
 # ----------------------------------------------------------------------------

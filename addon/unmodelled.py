@@ -41,13 +41,30 @@ def render_notes(scene) -> list:
         notes.append("Cycles' Biased volume rendering ray-marches heterogeneous media at its Step Rate; Primer renders "
                      "their unbiased mean, as Cycles' default (its own march finer than Cycles' steps)")
     if getattr(cycles, "use_fast_gi", False):
-        notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
-                     "follows whole paths")
+        notes += fast_gi_notes(scene, cycles)
     scale = float(getattr(cycles, "texture_resolution_render", 1.0))
     if getattr(render, "use_simplify", False) and abs(scale - 1.0) > 1e-6:
         notes.append("Cycles 5.2 shrinks image textures by Simplify > Texture Resolution; Primer reads them at full "
                      "resolution (or Texture Limit's)")
     return notes
+
+
+def fast_gi_notes(scene, cycles) -> list:
+    """What Primer does not render of Cycles' Fast GI Approximation (on in `cycles`): its Add method, any method with
+    Primer's own settings (they have no Fast GI), and objects' own AO Distance (Replace: export._fast_gi renders the
+    rest)."""
+    if getattr(cycles, "fast_gi_method", "REPLACE") != "REPLACE":
+        return ["Cycles' Fast GI Approximation (Add) adds ambient occlusion at every bounce; Primer follows whole "
+                "paths and adds none"]
+    if getattr(scene, "primer", None) is not None and not cycles_settings.follows_cycles(scene):
+        return ["Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer renders "
+                "with its own settings (Render > Settings), which have no Fast GI, and follows whole paths"]
+    own = [obj.name for obj in scene.objects
+           if float(getattr(getattr(obj, "cycles", None), "ao_distance", 0.0) or 0.0) != 0.0]
+    if own:
+        return [f"objects with an AO Distance of their own ({', '.join(own[:5])}): Cycles' Fast GI rays leaving them "
+                "look that far; Primer's look the world's AO Distance from every object"]
+    return []
 
 
 def view_layer_notes(view_layer) -> list:

@@ -204,6 +204,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .world_group = (int64_t)params->world_group, .features = params->features != 0.0 && work != NULL,
         .passes = passes, .media = params->media, .film_transparent = params->transparent != 0.0,
         .clear_glass = params->clear_glass,
+        .ao_bounces = (int)params->ao_bounces, .ao_factor = params->ao_factor, .ao_distance = params->ao_distance,
     };
     if (passes != NULL) passes_clear(passes);
     if (ds.features) camera_lane_features(params, b, H, work, ds.back);

@@ -110,13 +110,14 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         spawn_ray(s.I, s.Ng, D, s.offset, O);
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32);
-        set_lane(&packet.ray, 0, O, D, INFINITY);
+        double t_max = r->ao ? ds->ao_distance : INFINITY;    /* (Fast GI's short ray: as short past each surface) */
+        set_lane(&packet.ray, 0, O, D, t_max);
         set_time(&packet.ray, 0, r->time);
         close_packet(&packet.ray, valid, 1);
         clear_hits(&packet);
         ds->intersect(valid, ds->scene, &packet, NULL);
         if (packet.hit.geomID[0] != INVALID_ID && ds->geometry->hidden != NULL)
-            see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, O, D, INFINITY, r->seen_as, r->time);
+            see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, O, D, t_max, r->seen_as, r->time);
         int hit = packet.hit.geomID[0] != INVALID_ID;
         double light_L[3] = {0.0, 0.0, 0.0}, groups_L[3 * MAX_LIGHT_GROUPS];
         for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
@@ -126,9 +127,9 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         instance = instance_of(&packet.hit, 0);
         double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0};
         if (ds->media != NULL) medium_along(ds->media, &inside, sigma, emission);
-        FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
-                              (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission, NULL,
-                              ds->media != NULL ? &inside : NULL, r->time};
+        FindingRay finding = {O, D, hit, hit ? t : t_max, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O,
+                              r->mis_N, (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission,
+                              NULL, ds->media != NULL ? &inside : NULL, r->time, r->ao};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         if (ds->media != NULL) {                    /* (and what reaches the next surface) */
@@ -201,8 +202,9 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
          *  its emission already gathered by the ray) */
         if (clear > limits->transparent_bounces || (see_through && !boundary && clear >= limits->transparent_bounces))
             continue;
+        /* (Fast GI's short ray ends its path where it meets a surface, as past the limits: path.py) */
         if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
-            || tr > limits->transmission_bounces) {
+            || tr > limits->transmission_bounces || r->ao) {
             /* Past its bounce limits the path still looks through the transparent surfaces its ray meets. */
             /* (found lands in H->L, which the path's throughput multiplies: give it r's weight alone) */
             /* (nothing with light samples alone, whose BSDF rays gather nothing: path.through_transparent) */

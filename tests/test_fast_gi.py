@@ -1,0 +1,109 @@
+"""Cycles' Fast GI Approximation (Replace): past AO Bounces a path's ray looks AO Distance far, ends its path at the
+surface it meets, and brings the world's light times the AO Factor where it escapes; closed forms on both kernels."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from core import materials, render
+from core.camera import Camera
+from core.geometry import primitives
+from core.lights.world import World
+from core.scene import RenderSettings, Scene
+
+ALBEDO = 0.5
+SKY = 2.0
+
+
+def floor_under_sky(ceiling: float = 0.0, roof: float = 0.0) -> Scene:
+    """A grey Lambert floor (ALBEDO) under a constant world SKY, seen straight down by an orthographic camera at
+    z = 0.5 whose 4 x 4 pixels cover 1 cm of it; a grey square ceiling of half-width `ceiling` at z = 1 above the
+    camera (0: none); a wide clear roof (a Transparent BSDF of colour `roof`) at z = 0.75 (0: none)."""
+    scene = Scene(camera=Camera(type="ORTHO", ortho_scale=0.01, matrix_world=np.array(
+        [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.5], [0, 0, 0, 1.0]])), world=World(color=np.full(3, SKY)))
+    scene.materials.append(materials.Material((ALBEDO,) * 3, name="floor"))
+    scene.add_mesh(primitives.plane(4000.0), materials=np.array([0]))
+    if ceiling:
+        scene.materials.append(materials.Material((0.5, 0.5, 0.5), name="ceiling"))
+        scene.add_mesh(primitives.plane(2.0 * ceiling, center=(0.0, 0.0, 1.0)), materials=np.array([1]))
+    if roof:
+        scene.materials.append(materials.Material(name="roof", nodes=[("TRANSPARENT", (roof,) * 3, {})]))
+        scene.add_mesh(primitives.plane(4000.0, center=(0.0, 0.0, 0.75)), materials=np.array([len(scene.materials) - 1]))
+    return scene
+
+
+def settings(kernels: str, **fast_gi) -> RenderSettings:
+    """Path tracing, 4 x 4 pixels, with the Fast GI settings given."""
+    return RenderSettings(width=4, height=4, samples=64, integrator="path", kernels=kernels, **fast_gi)
+
+
+def square_form_factor(half_width: float, height: float) -> float:
+    """The share of a Lambert point's cosine-weighted directions that meet a square of half-width a straight above
+    it at `height` h (the point-to-parallel-rectangle form factor, four corner rectangles of sides a, a):
+    4 / (2 pi) x 2 A / sqrt(1 + A^2) atan(A / sqrt(1 + A^2)), A = a / h."""
+    A = half_width / height
+    root = math.sqrt(1.0 + A * A)
+    return 4.0 / (2.0 * math.pi) * 2.0 * A / root * math.atan(A / root)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_fast_gi_scales_the_world_found_past_ao_bounces_by_the_ao_factor(kernels):
+    """The floor's light is the world found by its BSDF rays (a constant world has no light samples): with AO
+    Bounces 1 the camera hit's ray is already Fast GI's, so the floor shows albedo x factor x L exactly; with AO
+    Bounces 2 it is not (albedo x L); an AO Factor of 0 turns Fast GI off (Cycles' sync), as does 0 AO Bounces."""
+    scene = floor_under_sky()
+    for fast_gi, expected in (({"ao_bounces": 1, "ao_factor": 0.3}, ALBEDO * 0.3 * SKY),
+                              ({"ao_bounces": 2, "ao_factor": 0.3}, ALBEDO * SKY),
+                              ({"ao_bounces": 1, "ao_factor": 0.0}, ALBEDO * SKY),
+                              ({"ao_bounces": 0, "ao_factor": 0.3}, ALBEDO * SKY)):
+        image = render.render(scene, settings(kernels, **fast_gi)).image[..., :3]
+        np.testing.assert_allclose(image, expected, rtol=1e-4, err_msg=str(fast_gi))
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_surface_within_ao_distance_ends_the_path_and_one_beyond_it_is_not_seen(kernels):
+    """A grey square ceiling (half-width 1, 1 m above the floor, lit by nothing but the world): Fast GI's rays that
+    meet it end there, so the floor keeps albedo x factor x L times the share of its directions that miss the ceiling,
+    1 - the form factor (0.554); with AO Distance 0.5 the ceiling lies beyond the rays' reach and the floor shows
+    albedo x factor x L, as under the open sky."""
+    scene = floor_under_sky(ceiling=1.0)
+    fast_gi = {"ao_bounces": 1, "ao_factor": 0.8}
+    near = render.render(scene, dataclasses.replace(settings(kernels, **fast_gi), samples=256, ao_distance=10.0))
+    blocked = square_form_factor(1.0, 1.0)
+    assert blocked == pytest.approx(0.5541, abs=1e-4)
+    assert near.image[..., :3].mean() == pytest.approx(ALBEDO * 0.8 * SKY * (1.0 - blocked), rel=0.03)
+    far = render.render(scene, settings(kernels, ao_distance=0.5, **fast_gi)).image[..., :3]
+    np.testing.assert_allclose(far, ALBEDO * 0.8 * SKY, rtol=1e-4)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_fast_gi_rays_still_look_through_clear_surfaces_to_the_scaled_world(kernels):
+    """A clear roof (Transparent colour 0.6) 0.75 m above the floor, AO Distance 1000: the Fast GI ray ends its path at
+    the roof but looks through it, as Cycles' terminate-after-transparent, to the world scaled by the factor: the floor
+    shows albedo x 0.6 x factor x L (all but the rays within 0.04 degrees of the horizon, which escape short of the
+    roof). With AO Distance 0.7 the roof is out of reach: albedo x factor x L."""
+    scene = floor_under_sky(roof=0.6)
+    fast_gi = {"ao_bounces": 1, "ao_factor": 0.5}
+    image = render.render(scene, settings(kernels, ao_distance=1000.0, **fast_gi)).image[..., :3]
+    np.testing.assert_allclose(image, ALBEDO * 0.6 * 0.5 * SKY, rtol=1e-4)
+    image = render.render(scene, settings(kernels, ao_distance=0.7, **fast_gi)).image[..., :3]
+    np.testing.assert_allclose(image, ALBEDO * 0.5 * SKY, rtol=1e-4)
+
+
+def test_compiled_fast_gi_follows_the_reference():
+    """A scene with every kind of light, an image-free world and a glossy sphere, Fast GI with AO Bounces 1 and a
+    short AO Distance: the compiled path renders what the Python reference renders, with the same rays."""
+    from test_compiled import LIGHTS, assert_same_render, compare_paths, lit_scene
+    scene = lit_scene(LIGHTS["several"])
+    scene.materials[1] = materials.Material(name="metal", nodes=[
+        ("PRINCIPLED", (1, 1, 1), {"metallic": 1.0, "base_color": (0.9, 0.6, 0.3), "roughness": 0.3})])
+    scene.world = World(color=np.array([0.3, 0.35, 0.4]), camera=True, lights=True)
+    fast = RenderSettings(width=40, height=30, samples=4, integrator="path", max_bounces=3, ao_bounces=1,
+                          ao_factor=0.5, ao_distance=0.7)
+    compiled, reference = compare_paths(scene, fast)
+    assert_same_render(compiled, reference)
+    full = render.render(scene, dataclasses.replace(fast, ao_factor=0.0, kernels="compiled"))
+    assert compiled.image[..., :3].mean() < full.image[..., :3].mean()     # (the world's light past a bounce, halved)
