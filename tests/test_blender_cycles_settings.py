@@ -498,8 +498,8 @@ def test_fast_gi_replace_renders_as_in_cycles(primer, tmp_path):
     scene.world.light_settings.ao_factor, scene.world.light_settings.distance = 0.4, 1.5
     images = {engine: render(scene, engine, str(tmp_path / f"{engine}.exr")) for engine in ("PRIMER", "CYCLES")}
     assert not [w for w in addon(primer, "engine").last_render.warnings if "Fast GI" in w]
-    assert relative_mse_of_blocks(images["PRIMER"], images["CYCLES"], 4) < 3e-4
+    assert relative_mse_of_blocks(images["PRIMER"], images["CYCLES"], 4) < 3e-5      # (measured: 1.6e-6)
     scene.cycles.use_fast_gi = False
     full = render(scene, "PRIMER", str(tmp_path / "full.exr"))
-    assert full.mean() > 1.1 * images["PRIMER"].mean()
-    assert images["CYCLES"].mean() == pytest.approx(images["PRIMER"].mean(), rel=0.02)
+    assert full.mean() > 1.4 * images["PRIMER"].mean()          # (measured: 0.854 against 0.510; relMSE 0.50)
+    assert images["CYCLES"].mean() == pytest.approx(images["PRIMER"].mean(), rel=0.01)
