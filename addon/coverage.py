@@ -144,8 +144,9 @@ COVERAGE = {
                "use_camera_cull camera_cull_margin use_distance_cull distance_cull_margin":
                    "export.object_culling (Simplify > Culling: objects left out as Cycles' sync leaves them)",
                "film_exposure": "export.film_exposure: Combined and the passes of light scaled (core render.expose)",
-               "use_fast_gi ao_bounces_render": "export._fast_gi (Fast GI Replace, where the scene follows its Cycles "
-                                                "settings; else unmodelled.fast_gi_notes)",
+               "use_fast_gi fast_gi_method ao_bounces_render": "export._fast_gi (Fast GI, Replace and Add, where the "
+                                                               "scene follows its Cycles settings; else "
+                                                               "unmodelled.fast_gi_notes)",
                "rolling_shutter_type rolling_shutter_duration": "motion.shutter: each row's time, top to bottom",
                "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
                "transparent_max_bounces volume_bounces min_light_bounces caustics_reflective caustics_refractive "
@@ -154,8 +155,7 @@ COVERAGE = {
                "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
-        REPORTED: {"fast_gi_method texture_resolution_render*": "unmodelled.render_notes (Fast GI's Add method: "
-                                                                "unmodelled.fast_gi_notes)",
+        REPORTED: {"texture_resolution_render*": "unmodelled.render_notes",
                    "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
                    "volume_biased*": "unmodelled.render_notes (Primer renders heterogeneous media's unbiased mean)"},
@@ -273,7 +273,7 @@ COVERAGE = {
                "use_camera_cull use_distance_cull": "export.object_culling (each object's Culling flags)"},
         REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes",
                    "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)",
-                   "ao_distance": "unmodelled.fast_gi_notes (an object's own Fast GI AO Distance)"},
+                   "ao_distance": "unmodelled.render_notes (an object's own Fast GI AO Distance: unmodelled.fast_gi_notes)"},
     },
     "CollectionLightLinking": {
         READ: {"link_state": "linking.reached (Include or Exclude, for an object or everything in a child collection)"},
@@ -365,7 +365,7 @@ COVERAGE = {
     },
     "WorldLighting": {
         READ: {"distance": "export._ao_distance (the Ambient Occlusion pass, and Fast GI's rays)",
-               "ao_factor": "export._fast_gi (Fast GI Replace: the world's light its rays find)"},
+               "ao_factor": "export._fast_gi (Fast GI: Replace's world scale, Add's ambient occlusion)"},
     },
     "WorldMistSettings": {
         READ: {"depth falloff start": "export._mist (the Mist pass)"},

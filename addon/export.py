@@ -1412,17 +1412,19 @@ def _ao_distance(scene) -> float:
 
 
 def _fast_gi(scene, props) -> dict:
-    """Cycles' Fast GI Approximation, Replace (RenderSettings ao_bounces, ao_factor), where the render follows the
+    """Cycles' Fast GI Approximation (RenderSettings ao_bounces, ao_factor, ao_additive_factor), where the render follows the
     scene's Cycles settings (props: cycles_settings.Effective; Primer's own settings have no Fast GI, and
-    unmodelled.render_notes says so): AO Bounces and the world's AO Factor (no world: factor 0, off, as Cycles' sync).
-    Add mode changes no path (Cycles' ao_additive_factor: noted by unmodelled.render_notes)."""
+    unmodelled.fast_gi_notes says so): Replace, AO Bounces and the world's AO Factor; Add (RenderSettings
+    ao_additive_factor), the world's AO Factor as the ambient occlusion each vertex adds. No world: factor 0, off, as
+    Cycles' sync."""
     cycles = getattr(scene, "cycles", None)
-    if not (getattr(props, "follows_cycles", False) and getattr(cycles, "use_fast_gi", False)
-            and getattr(cycles, "fast_gi_method", "REPLACE") == "REPLACE"):
+    if not (getattr(props, "follows_cycles", False) and getattr(cycles, "use_fast_gi", False)):
         return {}
     settings = getattr(scene.world, "light_settings", None) if scene.world is not None else None
-    return dict(ao_bounces=int(getattr(cycles, "ao_bounces_render", 1)),
-                ao_factor=float(getattr(settings, "ao_factor", 0.0)) if settings is not None else 0.0)
+    factor = float(getattr(settings, "ao_factor", 0.0)) if settings is not None else 0.0
+    if getattr(cycles, "fast_gi_method", "REPLACE") != "REPLACE":
+        return dict(ao_additive_factor=factor)
+    return dict(ao_bounces=int(getattr(cycles, "ao_bounces_render", 1)), ao_factor=factor)
 
 
 # ----------------------------------------------------------------------------

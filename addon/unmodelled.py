@@ -50,21 +50,20 @@ def render_notes(scene) -> list:
 
 
 def fast_gi_notes(scene, cycles) -> list:
-    """What Primer does not render of Cycles' Fast GI Approximation (on in `cycles`): its Add method, any method with
-    Primer's own settings (they have no Fast GI), and objects' own AO Distance (Replace: export._fast_gi renders the
-    rest)."""
-    if getattr(cycles, "fast_gi_method", "REPLACE") != "REPLACE":
-        return ["Cycles' Fast GI Approximation (Add) adds ambient occlusion at every bounce; Primer follows whole "
-                "paths and adds none"]
+    """What Primer does not render of Cycles' Fast GI Approximation (on in `cycles`): any of it with Primer's own
+    settings (they have no Fast GI), and objects' own AO Distance (Replace: Cycles' short rays leaving such an object
+    look that far). The rest is rendered (export._fast_gi)."""
+    notes = []
     if getattr(scene, "primer", None) is not None and not cycles_settings.follows_cycles(scene):
-        return ["Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer renders "
-                "with its own settings (Render > Settings), which have no Fast GI, and follows whole paths"]
+        notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion (or adds "
+                     "it); Primer renders with its own settings (Render > Settings), which have no Fast GI, and "
+                     "follows whole paths")
     own = [obj.name for obj in scene.objects
            if float(getattr(getattr(obj, "cycles", None), "ao_distance", 0.0) or 0.0) != 0.0]
-    if own:
-        return [f"objects with an AO Distance of their own ({', '.join(own[:5])}): Cycles' Fast GI rays leaving them "
-                "look that far; Primer's look the world's AO Distance from every object"]
-    return []
+    if own and getattr(cycles, "fast_gi_method", "REPLACE") == "REPLACE":
+        notes.append(f"objects with an AO Distance of their own ({', '.join(own[:5])}): Cycles' Fast GI rays leaving "
+                     "them look that far; Primer's look the world's AO Distance from every object")
+    return notes
 
 
 def view_layer_notes(view_layer) -> list:

@@ -1,5 +1,6 @@
-"""Cycles' Fast GI Approximation (Replace): past AO Bounces a path's ray looks AO Distance far, ends its path at the
-surface it meets, and brings the world's light times the AO Factor where it escapes; closed forms on both kernels."""
+"""Cycles' Fast GI Approximation. Replace: past AO Bounces a path's ray looks AO Distance far, ends its path at the
+surface it meets, and brings the world's light times the AO Factor where it escapes. Add: every vertex adds ambient
+occlusion times its diffuse closures' weights times the factor. Closed forms on both kernels."""
 from __future__ import annotations
 
 import dataclasses
@@ -18,16 +19,16 @@ ALBEDO = 0.5
 SKY = 2.0
 
 
-def floor_under_sky(ceiling: float = 0.0, roof: float = 0.0) -> Scene:
+def floor_under_sky(ceiling: float = 0.0, roof: float = 0.0, ceiling_albedo: float = 0.5) -> Scene:
     """A grey Lambert floor (ALBEDO) under a constant world SKY, seen straight down by an orthographic camera at
-    z = 0.5 whose 4 x 4 pixels cover 1 cm of it; a grey square ceiling of half-width `ceiling` at z = 1 above the
-    camera (0: none); a wide clear roof (a Transparent BSDF of colour `roof`) at z = 0.75 (0: none)."""
+    z = 0.5 whose 4 x 4 pixels cover 1 cm of it; a square ceiling (albedo ceiling_albedo) of half-width `ceiling` at
+    z = 1 above the camera (0: none); a wide clear roof (a Transparent BSDF of colour `roof`) at z = 0.75 (0: none)."""
     scene = Scene(camera=Camera(type="ORTHO", ortho_scale=0.01, matrix_world=np.array(
         [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.5], [0, 0, 0, 1.0]])), world=World(color=np.full(3, SKY)))
     scene.materials.append(materials.Material((ALBEDO,) * 3, name="floor"))
     scene.add_mesh(primitives.plane(4000.0), materials=np.array([0]))
     if ceiling:
-        scene.materials.append(materials.Material((0.5, 0.5, 0.5), name="ceiling"))
+        scene.materials.append(materials.Material((ceiling_albedo,) * 3, name="ceiling"))
         scene.add_mesh(primitives.plane(2.0 * ceiling, center=(0.0, 0.0, 1.0)), materials=np.array([1]))
     if roof:
         scene.materials.append(materials.Material(name="roof", nodes=[("TRANSPARENT", (roof,) * 3, {})]))
@@ -107,3 +108,41 @@ def test_compiled_fast_gi_follows_the_reference():
     assert_same_render(compiled, reference)
     full = render.render(scene, dataclasses.replace(fast, ao_factor=0.0, kernels="compiled"))
     assert compiled.image[..., :3].mean() < full.image[..., :3].mean()     # (the world's light past a bounce, halved)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_fast_gi_add_adds_the_diffuse_weight_times_the_factor_where_the_sky_is_open(kernels):
+    """Add, factor a: the floor under the open sky shows its whole-path light albedo x L plus, from its ambient
+    occlusion ray that always escapes, albedo x a: exactly (rtol 1e-4)."""
+    scene = floor_under_sky()
+    image = render.render(scene, settings(kernels, ao_additive_factor=0.7)).image[..., :3]
+    np.testing.assert_allclose(image, ALBEDO * (SKY + 0.7), rtol=1e-4)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_fast_gi_add_is_occluded_by_a_surface_within_ao_distance(kernels):
+    """Add under a black square ceiling (half-width 1, 1 m up; black: it reflects and adds nothing): the floor's paths
+    and its ambient occlusion both miss the ceiling's share F = 0.554 of directions, albedo (L + a)(1 - F); with AO
+    Distance 0.5 the occlusion is open again: albedo (L (1 - F) + a)."""
+    scene = floor_under_sky(ceiling=1.0, ceiling_albedo=0.0)
+    F = square_form_factor(1.0, 1.0)
+    near = render.render(scene, dataclasses.replace(settings(kernels, ao_additive_factor=0.7), samples=256))
+    assert near.image[..., :3].mean() == pytest.approx(ALBEDO * (SKY + 0.7) * (1.0 - F), rel=0.03)
+    far = render.render(scene, dataclasses.replace(settings(kernels, ao_additive_factor=0.7, ao_distance=0.5),
+                                                   samples=256))
+    assert far.image[..., :3].mean() == pytest.approx(ALBEDO * (SKY * (1.0 - F) + 0.7), rel=0.03)
+
+
+def test_compiled_fast_gi_add_follows_the_reference():
+    """Add with a short AO Distance on the scene with every kind of light and a metal sphere, three bounces: the
+    compiled path renders what the Python reference renders, with the same rays; brighter than without it."""
+    from test_compiled import LIGHTS, assert_same_render, compare_paths, lit_scene
+    scene = lit_scene(LIGHTS["several"])
+    scene.materials[1] = materials.Material(name="metal", nodes=[
+        ("PRINCIPLED", (1, 1, 1), {"metallic": 1.0, "base_color": (0.9, 0.6, 0.3), "roughness": 0.3})])
+    added = RenderSettings(width=40, height=30, samples=4, integrator="path", max_bounces=3, ao_additive_factor=0.5,
+                           ao_distance=0.7)
+    compiled, reference = compare_paths(scene, added)
+    assert_same_render(compiled, reference)
+    plain = render.render(scene, dataclasses.replace(added, ao_additive_factor=0.0, kernels="compiled"))
+    assert compiled.image[..., :3].mean() > plain.image[..., :3].mean()

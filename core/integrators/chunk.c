@@ -188,6 +188,9 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
 {
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces, params->media};
+    /* (Fast GI's Add rays pass transparent surfaces as the Ambient Occlusion pass's: no media, passes.c) */
+    Transmitter ao_transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
+                                  params->graphs, (int)params->transparent_bounces, NULL};
     DirectSettings ds = {
         .shadows = params->shadows, .lights = params->lights, .n_lights = (int64_t)params->light_count,
         .context = params->light_context, .occluded = (Occluded8)params->occluded8,
@@ -205,6 +208,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .passes = passes, .media = params->media, .film_transparent = params->transparent != 0.0,
         .clear_glass = params->clear_glass,
         .ao_bounces = (int)params->ao_bounces, .ao_factor = params->ao_factor, .ao_distance = params->ao_distance,
+        .ao_additive_factor = params->ao_additive_factor, .ao_transmitter = &ao_transmitter,
     };
     if (passes != NULL) passes_clear(passes);
     if (ds.features) camera_lane_features(params, b, H, work, ds.back);

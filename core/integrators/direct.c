@@ -613,6 +613,8 @@ typedef struct {
                                  * -1: off */
     int ao_bounces;             /* Fast GI (Replace): rays past these bounces are short (fast_gi_ray); 0: off */
     double ao_factor, ao_distance;   /* Fast GI: the world's scale for short rays, and how far they look */
+    double ao_additive_factor;  /* Fast GI (Add): ambient occlusion at every path vertex times this (0: off) */
+    const Transmitter *ao_transmitter;   /* what Add's rays pass (transparent surfaces, no media) */
 } DirectSettings;
 
 /* vertex.fast_gi_ray for one ray carrying `path` (its counters past the bounce that sent it): whether it is Fast GI's

@@ -170,6 +170,37 @@ def caustics_filter(settings, after_diffuse: np.ndarray):
     return np.where(after_diffuse, bits, 0)
 
 
+def fast_gi_added(ctx: Context, surface, shader, pixel: np.ndarray, sample: np.ndarray, dimension: int) -> np.ndarray:
+    """Fast GI's Add method at the m hits of `surface` with `shader` (pixel, sample (m,) int64 their keys): the light
+    (m, 3) float64 each adds to Combined, alpha x the sum of its diffuse closures' weights x ao_additive_factor where
+    one cosine-distributed ray about their weighted normal (sum of N |mean weight|, the shading normal where none)
+    escapes within ao_distance (times the transparency of the surfaces it passes: passes.ambient_occlusion), as
+    Cycles' integrate_surface_ao and surface_shader_ao; zero with the setting off (0) or another integrator than path."""
+    s = ctx.settings
+    m = len(surface.I)
+    added = np.zeros((m, 3))
+    factor = getattr(s, "ao_additive_factor", 0.0)
+    if not factor or s.integrator != "path" or m == 0:
+        return added
+    closures = shader.closures
+    weight, normal = np.zeros((m, 3)), np.zeros((m, 3))
+    for slot in range(closures.kind.shape[1]):
+        diffuse = materials_.has(closures.kind[:, slot], materials_.BSDFFlags.DIFFUSE)
+        w = np.where(diffuse[:, None], closures.weight[:, slot], 0.0)
+        weight += w
+        normal += np.abs(w.mean(axis=1))[:, None] * closures.N[:, slot]
+    rows = np.flatnonzero((weight != 0.0).any(axis=1))
+    if len(rows) == 0:
+        return added
+    length = np.linalg.norm(normal[rows], axis=1, keepdims=True)
+    N = np.where(length > 0.0, normal[rows] / np.where(length > 0.0, length, 1.0), surface.N[rows])
+    T = passes_.ambient_occlusion(ctx, surface.I[rows], surface.Ng[rows], surface.vertices[rows], N, pixel[rows],
+                                  sample[rows], dimension)
+    alpha = np.clip(1.0 - shader.transparency[rows], 0.0, 1.0)
+    added[rows] = alpha * T * (weight[rows] * factor)
+    return added
+
+
 def hit_materials(ctx: Context, ray, rows: np.ndarray) -> np.ndarray:
     """The material rows (k,) int of the surfaces the BSDF rays `rows` of `ray` hit."""
     return ctx.geometry.triangle_data(ray.hits.prim[rows], smooth=False).material
@@ -419,6 +450,10 @@ class PathTracing(Integrator):
                                                emitted=emitted, found=finds)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
+            # (Fast GI's Add method: ambient occlusion at every vertex, to Combined alone, unclamped, as Cycles')
+            if getattr(s, "ao_additive_factor", 0.0):
+                np.add.at(L_out, owner, throughput * fast_gi_added(ctx, surface, shader, pixel[owner], sample[owner],
+                                                                   dimension))
             if groups is not None:
                 groups.add_rows(owner, vertex_groups, throughput)
             if feats is not None:

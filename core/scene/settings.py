@@ -85,6 +85,8 @@ class RenderSettings:
                       Ambient Occlusion > Factor): a path's BSDF ray past ao_bounces bounces (diffuse ones, and the
                       first glossy one; core/integrators/path.py fast_gi_ray) looks ao_distance far and ends at the
                       surface it meets; escaping, it brings the world's light times ao_factor. 0 for either: off
+    ao_additive_factor: Cycles' Fast GI, Add (the world's AO Factor): every path vertex adds ambient occlusion (one
+                      ray ao_distance long) times its diffuse closures' weights times this (path.fast_gi_added); 0: off
     mist_start, mist_depth, mist_falloff: the Mist pass's mapping of the distance d from the camera (World > Mist
                       Pass: Start, Depth, Falloff as an exponent: Quadratic 2, Linear 1, Inverse Quadratic 0.5):
                       clamp((d - start) / depth, 0, 1) ^ falloff (core/integrators/passes.py)
@@ -149,6 +151,7 @@ class RenderSettings:
     ao_distance: float = 10.0
     ao_bounces: int = 0
     ao_factor: float = 0.0
+    ao_additive_factor: float = 0.0
     mist_start: float = 0.0
     mist_depth: float = 100.0
     mist_falloff: float = 1.0
