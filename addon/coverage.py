@@ -205,13 +205,13 @@ COVERAGE = {
                "depsgraph objects use": DEPSGRAPH},
         REPORTED: {"use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
                    "use_pass_subsurface_indirect aovs use_pass_combined use_solid":
-                   "unmodelled.view_layer_notes",
-                   "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
+                   "unmodelled.view_layer_notes"},
         NO_EFFECT: {"active_aov active_aov_index active_layer_collection active_lightgroup active_lightgroup_index "
                     "has_export_collections": VIEWPORT,
                     "cycles eevee": POINTER + " (or another engine's)",
                     "samples": NOISE + " (a sample count of the view layer's own, with Layer Samples)",
                     "use_pass_cryptomatte_accurate": "no longer read by Cycles (Cryptomatte is always accurate)",
+                    "use_ao": "not read by Cycles 5.0 (Fast GI, Add, renders the same with it off: measured)",
                     "freestyle_settings use_freestyle": "Freestyle: Blender draws its lines with EEVEE over any "
                                                         "engine's image",
                     "use_grease_pencil* use_pass_grease_pencil*": GREASE_PENCIL},
