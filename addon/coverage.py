@@ -145,8 +145,8 @@ COVERAGE = {
                    "export.object_culling (Simplify > Culling: objects left out as Cycles' sync leaves them)",
                "film_exposure": "export.film_exposure: Combined and the passes of light scaled (core render.expose)",
                "use_fast_gi fast_gi_method ao_bounces_render": "export._fast_gi (Fast GI, Replace and Add, where the "
-                                                               "scene follows its Cycles settings; else "
-                                                               "unmodelled.fast_gi_notes)",
+                                                               "scene follows its Cycles settings; with Primer's own "
+                                                               "unmodelled.render_notes says they have none)",
                "rolling_shutter_type rolling_shutter_duration": "motion.shutter: each row's time, top to bottom",
                "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
                "transparent_max_bounces volume_bounces min_light_bounces caustics_reflective caustics_refractive "
@@ -270,10 +270,10 @@ COVERAGE = {
                                                "the shutter, motion.give_motion)",
                "use_deform_motion": "motion._object_state (a deforming mesh's vertices over the shutter, "
                                     "motion.give_motion)",
-               "use_camera_cull use_distance_cull": "export.object_culling (each object's Culling flags)"},
+               "use_camera_cull use_distance_cull": "export.object_culling (each object's Culling flags)",
+               "ao_distance": "export.instance_keywords (its own Fast GI AO Distance, core Instance.ao_distance)"},
         REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes",
-                   "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)",
-                   "ao_distance": "unmodelled.render_notes (an object's own Fast GI AO Distance: unmodelled.fast_gi_notes)"},
+                   "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)"},
     },
     "CollectionLightLinking": {
         READ: {"link_state": "linking.reached (Include or Exclude, for an object or everything in a child collection)"},

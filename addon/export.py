@@ -692,9 +692,10 @@ def terminator_keywords(obj) -> dict:
 
 
 def instance_keywords(obj) -> dict:
-    """What a core Instance reads of an object besides its mesh and materials: Ray Visibility, Holdout and the shadow
-    terminator offsets (ray_visibility, terminator_keywords)."""
-    return {**ray_visibility(obj), **terminator_keywords(obj)}
+    """What a core Instance reads of an object besides its mesh and materials: Ray Visibility, Holdout, the shadow
+    terminator offsets (ray_visibility, terminator_keywords) and its own Fast GI AO Distance (Object > Visibility)."""
+    own = float(getattr(getattr(obj, "cycles", None), "ao_distance", 0.0) or 0.0)
+    return {**ray_visibility(obj), **terminator_keywords(obj), **({"ao_distance": own} if own else {})}
 
 
 def indirect_only(instance, view_layer) -> bool:

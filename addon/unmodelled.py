@@ -51,19 +51,12 @@ def render_notes(scene) -> list:
 
 def fast_gi_notes(scene, cycles) -> list:
     """What Primer does not render of Cycles' Fast GI Approximation (on in `cycles`): any of it with Primer's own
-    settings (they have no Fast GI), and objects' own AO Distance (Replace: Cycles' short rays leaving such an object
-    look that far). The rest is rendered (export._fast_gi)."""
-    notes = []
+    settings, which have no Fast GI. (Where the scene follows its Cycles settings it is rendered: export._fast_gi.)"""
     if getattr(scene, "primer", None) is not None and not cycles_settings.follows_cycles(scene):
-        notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion (or adds "
-                     "it); Primer renders with its own settings (Render > Settings), which have no Fast GI, and "
-                     "follows whole paths")
-    own = [obj.name for obj in scene.objects
-           if float(getattr(getattr(obj, "cycles", None), "ao_distance", 0.0) or 0.0) != 0.0]
-    if own and getattr(cycles, "fast_gi_method", "REPLACE") == "REPLACE":
-        notes.append(f"objects with an AO Distance of their own ({', '.join(own[:5])}): Cycles' Fast GI rays leaving "
-                     "them look that far; Primer's look the world's AO Distance from every object")
-    return notes
+        return ["Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion (or adds it); "
+                "Primer renders with its own settings (Render > Settings), which have no Fast GI, and follows whole "
+                "paths"]
+    return []
 
 
 def view_layer_notes(view_layer) -> list:

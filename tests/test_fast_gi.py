@@ -146,3 +146,19 @@ def test_compiled_fast_gi_add_follows_the_reference():
     assert_same_render(compiled, reference)
     plain = render.render(scene, dataclasses.replace(added, ao_additive_factor=0.0, kernels="compiled"))
     assert compiled.image[..., :3].mean() > plain.image[..., :3].mean()
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_an_objects_own_ao_distance_sets_how_far_the_rays_leaving_it_look(kernels):
+    """Replace under the grey square ceiling (1 m up), the world's AO Distance 10: the floor's own AO Distance 0.5
+    (Object > Visibility) makes its rays too short to meet the ceiling (albedo x factor x L exactly); the ceiling's
+    own 0.5 changes nothing, as the rays leave the floor (1 - the form factor of it), as Cycles' intersect_closest
+    takes the distance of the object a ray leaves."""
+    scene = floor_under_sky(ceiling=1.0)
+    fast_gi = dict(ao_bounces=1, ao_factor=0.8, ao_distance=10.0)
+    scene.instances[0].ao_distance = 0.5
+    image = render.render(scene, settings(kernels, **fast_gi)).image[..., :3]
+    np.testing.assert_allclose(image, ALBEDO * 0.8 * SKY, rtol=1e-4)
+    scene.instances[0].ao_distance, scene.instances[1].ao_distance = 0.0, 0.5
+    near = render.render(scene, dataclasses.replace(settings(kernels, **fast_gi), samples=256)).image[..., :3]
+    assert near.mean() == pytest.approx(ALBEDO * 0.8 * SKY * (1.0 - square_form_factor(1.0, 1.0)), rel=0.03)

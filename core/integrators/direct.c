@@ -1178,7 +1178,8 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             after[lanes] = path_after(path_at(H, h, H->flags[h]), s->kind, transmit, s->delta, sf->t,
                                       clears_glass(H->sd[h].c + s->slot, transmit, ds->clear_glass));
             ao[lanes] = fast_gi_ray(ds, after + lanes) && !bsdf_is(s->kind, BSDF_FLAG_SUBSURFACE);
-            t_max[lanes] = ao[lanes] ? ds->ao_distance : INFINITY;
+            t_max[lanes] = ao[lanes] ? ao_distance_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h],
+                                                      ds->ao_distance) : INFINITY;
             set_lane(&packet.ray, lanes, origin[lanes], s->wi, t_max[lanes]);
             set_time(&packet.ray, lanes, sf->time);
             owner[lanes] = h;

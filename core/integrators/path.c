@@ -110,7 +110,8 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         spawn_ray(s.I, s.Ng, D, s.offset, O);
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32);
-        double t_max = r->ao ? ds->ao_distance : INFINITY;    /* (Fast GI's short ray: as short past each surface) */
+        /* (Fast GI's short ray: as short past each surface, by the object of the surface passed) */
+        double t_max = r->ao ? ao_distance_of(ds->geometry, geometry, prim, instance, ds->ao_distance) : INFINITY;
         set_lane(&packet.ray, 0, O, D, t_max);
         set_time(&packet.ray, 0, r->time);
         close_packet(&packet.ray, valid, 1);

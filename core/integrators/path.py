@@ -251,7 +251,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         # 2. On from just past it, straight ahead, gathering what the ray finds.
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         short = None if ao is None else ao[alive]
-        t_max = np.full(len(alive), np.inf) if ao is None else np.where(short, s.ao_distance, np.inf)
+        t_max = (np.full(len(alive), np.inf) if ao is None     # (from the surface passed: its object's own)
+                 else np.where(short, ctx.geometry.ao_distances(surface.prim[go], s.ao_distance), np.inf))
         hits = nearest_seen(ctx, O, D, t_max, ray.seen_as[rows][alive], times)
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
         stretch = None if media is None else media.along(inside[alive], O, D)

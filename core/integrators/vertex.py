@@ -332,7 +332,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
                        through_clear_glass)
     # Fast GI (Replace): a ray past AO Bounces looks AO Distance far (and its path ends where it meets a surface).
     ao = fast_gi_ray(s, after) & ~materials_.has(bs.kind[go], materials_.BSDFFlags.SUBSURFACE)
-    t_max = np.where(ao, s.ao_distance, np.inf)
+    t_max = np.where(ao, ctx.geometry.ao_distances(surface.prim[go], s.ao_distance), np.inf)
     hits = nearest_seen(ctx, O, D, t_max, seen_as, None if surface.time is None else surface.time[go])
     pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
     # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS

@@ -751,6 +751,7 @@ its Object and Instancer attributes (geometry.instance_info) */
 (WorldGeometry.instance_links), NULL: nothing is linked */
     const double *terminator;               /* (n, 2) each instance's Shadow Terminator Geometry Offset (-1: the render's) and Shading
 Offset multiplier (WorldGeometry.instance_terminator), NULL: none has its own */
+    const double *ao_distance;              /* (n,) each instance's own Fast GI AO Distance (WorldGeometry.instance_ao_distance, 0: the render's), NULL: none has its own */
     const double *origin;                   /* (3,) the world point the vertices are relative to (the Geometry node's Position adds it) */
 };
 
@@ -1329,7 +1330,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(1445416722100176955);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7607883560999792480);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(2031733600485699727);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
