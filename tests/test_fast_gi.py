@@ -162,3 +162,11 @@ def test_an_objects_own_ao_distance_sets_how_far_the_rays_leaving_it_look(kernel
     scene.instances[0].ao_distance, scene.instances[1].ao_distance = 0.0, 0.5
     near = render.render(scene, dataclasses.replace(settings(kernels, **fast_gi), samples=256)).image[..., :3]
     assert near.mean() == pytest.approx(ALBEDO * 0.8 * SKY * (1.0 - square_form_factor(1.0, 1.0)), rel=0.03)
+
+
+@pytest.mark.parametrize("bad", [{"ao_bounces": -1}, {"ao_bounces": 1.5}, {"ao_factor": float("nan")},
+                                 {"ao_additive_factor": float("inf")}])
+def test_fast_gi_settings_out_of_range_are_refused(bad):
+    """A negative or fractional AO Bounces, a factor that is not a finite number: a ValueError naming the setting."""
+    with pytest.raises(ValueError, match=list(bad)[0].replace("_", " ")):
+        render.render(floor_under_sky(), settings("numpy", **bad))
