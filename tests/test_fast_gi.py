@@ -170,3 +170,14 @@ def test_fast_gi_settings_out_of_range_are_refused(bad):
     """A negative or fractional AO Bounces, a factor that is not a finite number: a ValueError naming the setting."""
     with pytest.raises(ValueError, match=list(bad)[0].replace("_", " ")):
         render.render(floor_under_sky(), settings("numpy", **bad))
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_shadow_catcher_pass_divides_the_added_occlusion_by_catcher_only_light_without_it(kernels):
+    """Add on a catcher floor under the open sky: the whole scene's path brings albedo (L + a), the catcher-only one
+    albedo L (Cycles' split path, PATH_RAY_SHADOW_CATCHER_PASS, adds no ambient occlusion), so the Shadow Catcher
+    pass is (L + a) / L exactly."""
+    scene = floor_under_sky()
+    scene.instances[0].is_shadow_catcher = True
+    result = render.render(scene, settings(kernels, ao_additive_factor=0.7, shadow_catcher_pass=True))
+    np.testing.assert_allclose(result.aux["shadow_catcher"][..., :3], (SKY + 0.7) / SKY, rtol=1e-4)
