@@ -1413,8 +1413,8 @@ def _ao_distance(scene) -> float:
 
 
 def _fast_gi(scene, props) -> dict:
-    """Cycles' Fast GI Approximation (RenderSettings ao_bounces, ao_factor, ao_additive_factor), where the render follows the
-    scene's Cycles settings (props: cycles_settings.Effective; Primer's own settings have no Fast GI, and
+    """Cycles' Fast GI Approximation (RenderSettings ao_bounces, ao_factor, ao_additive_factor), where the render
+    follows the scene's Cycles settings (props: cycles_settings.Effective; Primer's own settings have no Fast GI, and
     unmodelled.fast_gi_notes says so): Replace, AO Bounces and the world's AO Factor; Add (RenderSettings
     ao_additive_factor), the world's AO Factor as the ambient occlusion each vertex adds. No world: factor 0, off, as
     Cycles' sync."""

@@ -32,7 +32,8 @@ def floor_under_sky(ceiling: float = 0.0, roof: float = 0.0, ceiling_albedo: flo
         scene.add_mesh(primitives.plane(2.0 * ceiling, center=(0.0, 0.0, 1.0)), materials=np.array([1]))
     if roof:
         scene.materials.append(materials.Material(name="roof", nodes=[("TRANSPARENT", (roof,) * 3, {})]))
-        scene.add_mesh(primitives.plane(4000.0, center=(0.0, 0.0, 0.75)), materials=np.array([len(scene.materials) - 1]))
+        scene.add_mesh(primitives.plane(4000.0, center=(0.0, 0.0, 0.75)),
+                       materials=np.array([len(scene.materials) - 1]))
     return scene
 
 

@@ -463,7 +463,8 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
             for (int64_t h = 0; h < current->m; h++) {
                 double added[3];
                 fast_gi_added(ds, current, h, added);
-                for (int c = 0; c < 3; c++) work->extra[current->lane[h]][c] += current->throughput[3 * h + c] * added[c];
+                for (int c = 0; c < 3; c++)
+                    work->extra[current->lane[h]][c] += current->throughput[3 * h + c] * added[c];
             }
         work->rays.n = 0;
         ds->continuing = &work->rays;

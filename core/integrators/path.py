@@ -175,7 +175,8 @@ def fast_gi_added(ctx: Context, surface, shader, pixel: np.ndarray, sample: np.n
     (m, 3) float64 each adds to Combined, alpha x the sum of its diffuse closures' weights x ao_additive_factor where
     one cosine-distributed ray about their weighted normal (sum of N |mean weight|, the shading normal where none)
     escapes within ao_distance (times the transparency of the surfaces it passes: passes.ambient_occlusion), as
-    Cycles' integrate_surface_ao and surface_shader_ao; zero with the setting off (0) or another integrator than path."""
+    Cycles' integrate_surface_ao and surface_shader_ao; zero with the setting off (0) or an integrator other than
+    path."""
     s = ctx.settings
     m = len(surface.I)
     added = np.zeros((m, 3))
