@@ -144,6 +144,9 @@ COVERAGE = {
                "use_camera_cull camera_cull_margin use_distance_cull distance_cull_margin":
                    "export.object_culling (Simplify > Culling: objects left out as Cycles' sync leaves them)",
                "film_exposure": "export.film_exposure: Combined and the passes of light scaled (core render.expose)",
+               "use_fast_gi fast_gi_method ao_bounces_render": "export._fast_gi (Fast GI, Replace and Add, where the "
+                                                               "scene follows its Cycles settings; with Primer's own "
+                                                               "unmodelled.render_notes says they have none)",
                "rolling_shutter_type rolling_shutter_duration": "motion.shutter: each row's time, top to bottom",
                "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
                "transparent_max_bounces volume_bounces min_light_bounces caustics_reflective caustics_refractive "
@@ -152,8 +155,7 @@ COVERAGE = {
                "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
-        REPORTED: {"use_fast_gi "
-                   "fast_gi_method ao_bounces_render texture_resolution_render*": "unmodelled.render_notes",
+        REPORTED: {"texture_resolution_render*": "unmodelled.render_notes",
                    "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
                    "volume_biased*": "unmodelled.render_notes (Primer renders heterogeneous media's unbiased mean)"},
@@ -205,13 +207,13 @@ COVERAGE = {
                "depsgraph objects use": DEPSGRAPH},
         REPORTED: {"use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
                    "use_pass_subsurface_indirect use_pass_combined use_solid":
-                   "unmodelled.view_layer_notes",
-                   "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
+                   "unmodelled.view_layer_notes"},
         NO_EFFECT: {"active_aov active_aov_index active_layer_collection active_lightgroup active_lightgroup_index "
                     "has_export_collections": VIEWPORT,
                     "cycles eevee": POINTER + " (or another engine's)",
                     "samples": NOISE + " (a sample count of the view layer's own, with Layer Samples)",
                     "use_pass_cryptomatte_accurate": "no longer read by Cycles (Cryptomatte is always accurate)",
+                    "use_ao": "not read by Cycles 5.0 (Fast GI, Add, renders the same with it off: measured)",
                     "freestyle_settings use_freestyle": "Freestyle: Blender draws its lines with EEVEE over any "
                                                         "engine's image",
                     "use_grease_pencil* use_pass_grease_pencil*": GREASE_PENCIL},
@@ -271,10 +273,10 @@ COVERAGE = {
                                                "the shutter, motion.give_motion)",
                "use_deform_motion": "motion._object_state (a deforming mesh's vertices over the shutter, "
                                     "motion.give_motion)",
-               "use_camera_cull use_distance_cull": "export.object_culling (each object's Culling flags)"},
+               "use_camera_cull use_distance_cull": "export.object_culling (each object's Culling flags)",
+               "ao_distance": "export.instance_keywords (its own Fast GI AO Distance, core Instance.ao_distance)"},
         REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes",
-                   "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)",
-                   "ao_distance": "unmodelled.render_notes (Fast GI)"},
+                   "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)"},
     },
     "CollectionLightLinking": {
         READ: {"link_state": "linking.reached (Include or Exclude, for an object or everything in a child collection)"},
@@ -365,8 +367,8 @@ COVERAGE = {
                     "cycles cycles_visibility": POINTER},
     },
     "WorldLighting": {
-        READ: {"distance": "export._ao_distance (the Ambient Occlusion pass)"},
-        REPORTED: {"ao_factor": "unmodelled.render_notes (Fast GI)"},
+        READ: {"distance": "export._ao_distance (the Ambient Occlusion pass, and Fast GI's rays)",
+               "ao_factor": "export._fast_gi (Fast GI: Replace's world scale, Add's ambient occlusion)"},
     },
     "WorldMistSettings": {
         READ: {"depth falloff start": "export._mist (the Mist pass)"},

@@ -692,9 +692,10 @@ def terminator_keywords(obj) -> dict:
 
 
 def instance_keywords(obj) -> dict:
-    """What a core Instance reads of an object besides its mesh and materials: Ray Visibility, Holdout and the shadow
-    terminator offsets (ray_visibility, terminator_keywords)."""
-    return {**ray_visibility(obj), **terminator_keywords(obj)}
+    """What a core Instance reads of an object besides its mesh and materials: Ray Visibility, Holdout, the shadow
+    terminator offsets (ray_visibility, terminator_keywords) and its own Fast GI AO Distance (Object > Visibility)."""
+    own = float(getattr(getattr(obj, "cycles", None), "ao_distance", 0.0) or 0.0)
+    return {**ray_visibility(obj), **terminator_keywords(obj), **({"ao_distance": own} if own else {})}
 
 
 def indirect_only(instance, view_layer) -> bool:
@@ -1311,6 +1312,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         denoising_features=bool(props.use_denoising),
         passes=tuple(passes),
         ao_distance=_ao_distance(scene),
+        **_fast_gi(scene, props),
         **_mist(scene),
     )
 
@@ -1415,6 +1417,22 @@ def _ao_distance(scene) -> float:
     world = scene.world
     settings = getattr(world, "light_settings", None) if world is not None else None
     return float(getattr(settings, "distance", 10.0)) if settings is not None else 10.0
+
+
+def _fast_gi(scene, props) -> dict:
+    """Cycles' Fast GI Approximation (RenderSettings ao_bounces, ao_factor, ao_additive_factor), where the render
+    follows the scene's Cycles settings (props: cycles_settings.Effective; Primer's own settings have no Fast GI, and
+    unmodelled.fast_gi_notes says so): Replace, AO Bounces and the world's AO Factor; Add (RenderSettings
+    ao_additive_factor), the world's AO Factor as the ambient occlusion each vertex adds. No world: factor 0, off, as
+    Cycles' sync."""
+    cycles = getattr(scene, "cycles", None)
+    if not (getattr(props, "follows_cycles", False) and getattr(cycles, "use_fast_gi", False)):
+        return {}
+    settings = getattr(scene.world, "light_settings", None) if scene.world is not None else None
+    factor = float(getattr(settings, "ao_factor", 0.0)) if settings is not None else 0.0
+    if getattr(cycles, "fast_gi_method", "REPLACE") != "REPLACE":
+        return dict(ao_additive_factor=factor)
+    return dict(ao_bounces=int(getattr(cycles, "ao_bounces_render", 1)), ao_factor=factor)
 
 
 # ----------------------------------------------------------------------------

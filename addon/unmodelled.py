@@ -40,13 +40,22 @@ def render_notes(scene) -> list:
         notes.append("Cycles' Biased volume rendering ray-marches heterogeneous media at its Step Rate; Primer renders "
                      "their unbiased mean, as Cycles' default (its own march finer than Cycles' steps)")
     if getattr(cycles, "use_fast_gi", False):
-        notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
-                     "follows whole paths")
+        notes += fast_gi_notes(scene, cycles)
     scale = float(getattr(cycles, "texture_resolution_render", 1.0))
     if getattr(render, "use_simplify", False) and abs(scale - 1.0) > 1e-6:
         notes.append("Cycles 5.2 shrinks image textures by Simplify > Texture Resolution; Primer reads them at full "
                      "resolution (or Texture Limit's)")
     return notes
+
+
+def fast_gi_notes(scene, cycles) -> list:
+    """What Primer does not render of Cycles' Fast GI Approximation (on in `cycles`): any of it with Primer's own
+    settings, which have no Fast GI. (Where the scene follows its Cycles settings it is rendered: export._fast_gi.)"""
+    if getattr(scene, "primer", None) is not None and not cycles_settings.follows_cycles(scene):
+        return ["Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion (or adds it); "
+                "Primer renders with its own settings (Render > Settings), which have no Fast GI, and follows whole "
+                "paths"]
+    return []
 
 
 def view_layer_notes(view_layer) -> list:

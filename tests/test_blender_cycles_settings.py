@@ -475,3 +475,34 @@ def test_bump_map_correction_off_renders_as_in_cycles(primer, tmp_path):
     for engine in ("PRIMER", "CYCLES"):             # (measured: 0.091 in both)
         assert relative_mse_of_blocks(images[engine, False], images[engine, True], 4) > 0.03, engine
     assert not [w for w in addon(primer, "engine").last_render.warnings if "Bump" in w]
+
+
+def test_fast_gi_replace_renders_as_in_cycles(primer, tmp_path):
+    """Render > Light Paths > Fast GI Approximation (Replace, AO Bounces 1) with the world's AO Factor 0.4 and Distance
+    1.5: a floor and a wall under a grey world and a sun, seen from the side. Past its first diffuse bounce a path's
+    ray looks 1.5 m (0.2 from the floor, its own Object > Visibility > AO Distance), ends at what it meets and brings
+    0.4 of the world where it escapes: Primer's image is Cycles' within noise, darker than without Fast GI, and no note
+    speaks of Fast GI."""
+    scene = new_cycles_file(64, 48)
+    scene.primer.settings_source = "CYCLES"
+    scene.cycles.samples, scene.cycles.max_bounces = 128, 4
+    scene.world = plain_world("Grey", (0.6, 0.6, 0.6))
+    white = diffuse_material("White", (0.8, 0.8, 0.8))
+    quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], white)
+    quad("Wall", [(-3, 1, 0), (3, 1, 0), (3, 1, 3), (-3, 1, 3)], white)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 2.0, math.radians(5.0)
+    sun.rotation_euler = (math.radians(50.0), 0.0, math.radians(-30.0))
+    scene.collection.objects.link(sun)
+    add_camera(scene, (2.5, -5.5, 2.2), (math.radians(72), 0.0, math.radians(25)))
+    scene.cycles.use_fast_gi, scene.cycles.fast_gi_method, scene.cycles.ao_bounces_render = True, "REPLACE", 1
+    scene.world.light_settings.ao_factor, scene.world.light_settings.distance = 0.4, 1.5
+    bpy.data.objects["Floor"].cycles.ao_distance = 0.2
+    images = {engine: render(scene, engine, str(tmp_path / f"{engine}.exr")) for engine in ("PRIMER", "CYCLES")}
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "Fast GI" in w]
+    # (measured: 1.0e-6; 6.1e-4 with the world's distance from the floor too, 1.6e-6 against Cycles then)
+    assert relative_mse_of_blocks(images["PRIMER"], images["CYCLES"], 4) < 3e-5
+    scene.cycles.use_fast_gi = False
+    full = render(scene, "PRIMER", str(tmp_path / "full.exr"))
+    assert full.mean() > 1.4 * images["PRIMER"].mean()          # (measured: 0.854 against 0.514; relMSE 0.50)
+    assert images["CYCLES"].mean() == pytest.approx(images["PRIMER"].mean(), rel=0.01)

@@ -115,7 +115,8 @@ def test_read_settings_are_read_and_reported_ones_have_their_function(addon):
 #  the unmodelled.py function, what it is called with, a phrase of its note). The table must say REPORTED by it.
 CASES = [
     ("RenderSettings", "scene.render", "use_multiview", True, [], "render_notes", "scene", "Stereoscopy"),
-    ("CyclesRenderSettings", "scene.cycles", "use_fast_gi", True, [], "render_notes", "scene", "Fast GI"),
+    ("CyclesRenderSettings", "scene.cycles", "use_fast_gi", True, [("scene.primer", "settings_source", "PRIMER")],
+     "render_notes", "scene", "which have no Fast GI"),
     ("CyclesRenderSettings", "scene.cycles", "volume_biased", True, [], "render_notes", "scene", "Biased volume"),
     ("CyclesRenderSettings", "scene.cycles", "texture_resolution_render", 0.5,
      [("scene.render", "use_simplify", True)], "render_notes", "scene", "Texture Resolution"),

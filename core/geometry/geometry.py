@@ -73,6 +73,8 @@ class WorldGeometry:
                     array when no object has any of them
     instance_links: (n, 4) uint64 each Scene.instances entry's light set, shadow set, light membership and shadow
                     membership (core/lights/linking.py), or an empty array when nothing is linked
+    instance_ao_distance: (n,) float64 each Scene.instances entry's own Fast GI AO Distance (0: the render's), or
+        empty where none has one
     instance_terminator: (n, 2) float64 each Scene.instances entry's shadow terminator (terminator_table): its
                     Geometry Offset (-1: the render's) and its Shading Offset as Cycles' frequency multiplier, or an
                     empty array when every object takes the render's offset and bends no cosine
@@ -99,6 +101,7 @@ class WorldGeometry:
     instance_hidden: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
     instance_links: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.uint64))
     instance_terminator: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    instance_ao_distance: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def has_smooth(self) -> bool:
@@ -219,6 +222,15 @@ class WorldGeometry:
         owner = self.owners(np.asarray(prim, np.int64))
         own = np.where(owner >= 0, self.instance_terminator[np.maximum(owner, 0), 0], -1.0)
         return np.where(own >= 0.0, own, float(fallback))
+
+    def ao_distances(self, prim: np.ndarray, fallback: float) -> np.ndarray:
+        """How far Fast GI's rays leaving each triangle `prim` (k,) int64 look: (k,) float64 its object's own AO
+        Distance where nonzero, else `fallback` (the render's; Cycles' intersect_closest)."""
+        if not len(self.instance_ao_distance):
+            return np.full(len(prim), float(fallback))
+        owner = self.owners(np.asarray(prim, np.int64))
+        own = np.where(owner >= 0, self.instance_ao_distance[np.maximum(owner, 0)], 0.0)
+        return np.where(own != 0.0, own, float(fallback))
 
     def terminator_multipliers(self, prim: np.ndarray):
         """Cycles' frequency multiplier (k,) float64 of the Shading Offset of the object of each triangle `prim`
@@ -570,6 +582,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_hidden=hidden_flags(scene.instances),
         instance_links=link_table(scene.instances),
         instance_terminator=terminator_table(scene.instances),
+        instance_ao_distance=ao_distance_table(scene.instances),
     )
 
 
@@ -614,6 +627,13 @@ def link_table(instances: list) -> np.ndarray:
                      np.uint64).reshape(-1, 4)
     unlinked = (table[:, 0] == 0) & (table[:, 1] == 0) & (table[:, 2] == ALL_SETS) & (table[:, 3] == ALL_SETS)
     return table if not unlinked.all() else np.zeros((0, 4), np.uint64)
+
+
+def ao_distance_table(instances: list) -> np.ndarray:
+    """(n,) float64 each instance's own Fast GI AO Distance (Instance.ao_distance, 0: the render's); empty where
+    none has one."""
+    table = np.array([float(getattr(i, "ao_distance", 0.0) or 0.0) for i in instances], np.float64)
+    return table if (table != 0.0).any() else np.zeros(0)
 
 
 def terminator_table(instances: list) -> np.ndarray:

@@ -59,6 +59,8 @@ GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (c
                         "(WorldGeometry.instance_links), NULL: nothing is linked"),
     ("terminator", ptr(F64), "(n, 2) each instance's Shadow Terminator Geometry Offset (-1: the render's) and Shading\n"
                              "Offset multiplier (WorldGeometry.instance_terminator), NULL: none has its own"),
+    ("ao_distance", ptr(F64), "(n,) each instance's own Fast GI AO Distance (WorldGeometry.instance_ao_distance, "
+                              "0: the render's), NULL: none has its own"),
     ("origin", ptr(F64), "(3,) the world point the vertices are relative to (the Geometry node's Position adds it)"),
 ])
 
@@ -120,4 +122,8 @@ class GeometryTables:
         # The objects' own shadow terminator offsets, where some object has one (the terminator fix).
         if len(geometry.instance_terminator):
             self.record.terminator = c(geometry.instance_terminator, np.float64)
+            self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None
+        # The objects' own Fast GI AO Distance, where some object has one.
+        if len(geometry.instance_ao_distance):
+            self.record.ao_distance = c(geometry.instance_ao_distance, np.float64)
             self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None

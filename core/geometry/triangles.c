@@ -182,6 +182,15 @@ INLINE double terminator_offset_of(const GeometryTables *g, int64_t geometry, in
     return own >= 0.0 ? own : fallback;
 }
 
+/* WorldGeometry.ao_distances for one Embree hit: its object's own Fast GI AO Distance where nonzero, else `fallback`
+ * (the render's). */
+INLINE double ao_distance_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance, double fallback)
+{
+    int64_t owner = g->ao_distance == NULL ? -1 : owner_of(g, geometry, prim, instance);
+    double own = owner < 0 ? 0.0 : g->ao_distance[owner];
+    return own != 0.0 ? own : fallback;
+}
+
 /* WorldGeometry.terminator_multipliers for one Embree hit: its object's Shading Offset multiplier (1: none). */
 INLINE double terminator_multiplier_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
 {

@@ -72,7 +72,8 @@ PASS_BUFFER = "shadow_catcher"     # the Shadow Catcher pass's image in RenderRe
 def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[Context]:
     """The Context of the catcher-only scene of `ctx` (module docstring), or None where no object is a catcher:
     its geometry hides every other object from every ray, the emitters of those objects light no closure, its
-    integrator writes no passes, light groups or features, its camera rays see no lamps, and it has no media. What
+    integrator writes no passes, light groups or features nor Fast GI's added occlusion, its camera rays see no lamps,
+    and it has no media. What
     it leaves out of Cycles' catchers is said once in `warnings` (where the scene has it)."""
     geometry = ctx.geometry
     if geometry is None or not geometry.hides(SHADOW_CATCHER):
@@ -99,7 +100,9 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
         alone.hidden = emitters_hidden(view, emitters)
         lights = [alone if light is emitters else light for light in lights]
         emitters = alone
-    settings = dataclasses.replace(ctx.settings, passes=(), light_groups=(), denoising_features=False, aux=())
+    # (and no Fast GI Add: Cycles' split path, PATH_RAY_SHADOW_CATCHER_PASS, traces no ambient occlusion)
+    settings = dataclasses.replace(ctx.settings, passes=(), light_groups=(), denoising_features=False, aux=(),
+                                   ao_additive_factor=0.0)
     extra = dict(ctx.extra, transparent=True, camera_lamps=[], media=None, emitters=emitters, light_groups=None,
                  pass_layout=passes_.PassLayout((), 1))
     extra.pop("media_bounds", None)

@@ -189,6 +189,9 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
 {
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces, params->media};
+    /* (Fast GI's Add rays pass transparent surfaces as the Ambient Occlusion pass's: no media, passes.c) */
+    Transmitter ao_transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
+                                  params->graphs, (int)params->transparent_bounces, NULL};
     DirectSettings ds = {
         .shadows = params->shadows, .lights = params->lights, .n_lights = (int64_t)params->light_count,
         .context = params->light_context, .occluded = (Occluded8)params->occluded8,
@@ -205,6 +208,8 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .world_group = (int64_t)params->world_group, .features = params->features != 0.0 && work != NULL,
         .passes = passes, .media = params->media, .film_transparent = params->transparent != 0.0,
         .clear_glass = params->clear_glass,
+        .ao_bounces = (int)params->ao_bounces, .ao_factor = params->ao_factor, .ao_distance = params->ao_distance,
+        .ao_additive_factor = params->ao_additive_factor, .ao_transmitter = &ao_transmitter,
     };
     if (ds.light_passes)                        /* (what the media scatter along the camera rays: below) */
         for (int64_t k = 0; k < BLOCK; k++)

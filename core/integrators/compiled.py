@@ -90,6 +90,12 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("walks", I32, "1: some material walks subsurface scattering (direct: the path tracer with no bounces)"),
     ("caustics", I32, "FILTER_* bits after a diffuse bounce (path.caustics_bits)"),
     ("filter_glossy", F64, "Cycles' Filter Glossy, 0: off (path.filter_glossy_roughness)"),
+    ("ao_bounces", I32, "Fast GI (Replace): a ray past these bounces is short and ends its path (vertex.fast_gi_ray); "
+                        "0: off"),
+    ("ao_factor", F64, "Fast GI: the world's light a short ray escapes to is scaled by this"),
+    ("ao_distance", F64, "Fast GI: how far a short ray looks (and Add's ambient occlusion rays)"),
+    ("ao_additive_factor", F64, "Fast GI (Add): every path vertex adds ambient occlusion times its diffuse closures' "
+                                "weights times this (path.fast_gi_added); 0: off"),
     ("clamp_direct", F64, "sample clamping's caps (clamp.limits; inf: none)"),
     ("clamp_indirect", F64, ""),
     ("light_passes", I32, "1: sum the light passes (lightpasses.c) into ChunkOut.light"),
@@ -284,6 +290,9 @@ class Compiled:
             see_through=bool(ctx.extra.get("transparent")),
             walks=bool(ctx.extra.get("subsurface")),
             caustics=caustics_bits(s), filter_glossy=max(float(s.filter_glossy), 0.0), clamp_direct=direct_cap, clamp_indirect=indirect_cap,
+            ao_bounces=s.ao_bounces if s.ao_factor != 0.0 and s.integrator == "path" else 0,
+            ao_factor=float(s.ao_factor), ao_distance=float(s.ao_distance),
+            ao_additive_factor=float(s.ao_additive_factor) if s.integrator == "path" else 0.0,
             light_passes=self.light_passes)
         self.want_squares = bool(s.adaptive)
         self.features = bool(s.denoising_features)

@@ -127,6 +127,7 @@ typedef struct {
     double shares[PASS_KINDS][3];                /* its pass kinds' shares (lightpasses.c; light passes only) */
     VolumeStack inside;                          /* the media it crosses (media.c; with media only) */
     double attenuation[3];                       /* what they let through to its hit (1 without media) */
+    int ao;                                      /* 1: Fast GI's short ray: its path ends at its hit */
 } PathRay;
 
 /* direct.nearest_seen for lane k of a packet whose rays are of the kind `bit` (HIDDEN_FROM_*): while the lane's
@@ -610,7 +611,19 @@ typedef struct {
     int film_transparent;       /* 1: Film > Transparent (camera paths' rays that escape see no world) */
     double clear_glass;         /* Film > Transparent Glass: threshold^4 of alpha_x alpha_y (rays.clear_glass_threshold),
                                  * -1: off */
+    int ao_bounces;             /* Fast GI (Replace): rays past these bounces are short (fast_gi_ray); 0: off */
+    double ao_factor, ao_distance;   /* Fast GI: the world's scale for short rays, and how far they look */
+    double ao_additive_factor;  /* Fast GI (Add): ambient occlusion at every path vertex times this (0: off) */
+    const Transmitter *ao_transmitter;   /* what Add's rays pass (transparent surfaces, no media) */
 } DirectSettings;
+
+/* vertex.fast_gi_ray for one ray carrying `path` (its counters past the bounce that sent it): whether it is Fast GI's
+ * short ray (Cycles' path_state_ao_bounce): bounce - transmission - (glossy > 0) + 1 past ao_bounces. */
+INLINE int fast_gi_ray(const DirectSettings *ds, const LightPath *path)
+{
+    if (ds->ao_bounces == 0) return 0;
+    return path->bounce - path->transmission - (path->glossy > 0) + 1 > ds->ao_bounces;
+}
 
 /* path.py: a camera chain's ray from hit h straight on through a transparent surface (passes.c). */
 INLINE void passes_straight_on(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h,
@@ -959,6 +972,7 @@ typedef struct {
     const ShaderKeys *keys;
     const VolumeStack *inside;        /* the media it crosses (with sigma), for a march through heterogeneous ones */
     double time;            /* its time in the shutter (its path's): where a moving emitter it hit is */
+    int ao;                 /* 1: Fast GI's short ray: the world it escapes to is scaled by ds->ao_factor */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -1079,6 +1093,8 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         double w = 1.0;
         if (world_index >= 0 && use_mis)
             w = power_heuristic(pdf_b, ds->lights[world_index].samples * world_pdf(ctx->world, D));
+        if (ray->ao)                                    /* (Fast GI: its MIS weight kept, as Cycles') */
+            for (int c = 0; c < 3; c++) L_world[c] *= ds->ao_factor;
         for (int c = 0; c < 3; c++) light_L[c] += L_world[c] * w;
         add_to_group(groups_L, ds->groups, 0, ds->world_group, L_world, w);
     }
@@ -1133,6 +1149,8 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
     double origin[PACKET][3];
     int kinds[PACKET];
     LightPath after[PACKET];
+    int ao[PACKET];                              /* 1: Fast GI's short ray (fast_gi_ray) */
+    double t_max[PACKET];
     /* The hits' sample points (sobol.sample_2d, the same numbers) all at once in SIMD lanes: each hit's direction
      * (u) and the number that picks its closure (pick; its second coordinate unused). */
     uint32_t key_pixel[BLOCK], key_index[BLOCK];
@@ -1155,7 +1173,15 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             const Surface *sf = H->s + h;
             spawn_ray(sf->I, sf->Ng, s->wi, ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon, origin[lanes]);
             if (bsdf_is(s->kind, BSDF_FLAG_PORTAL)) portal_origin(H->sd[h].c[s->slot].p, sf->I, ds->geometry->origin, origin[lanes]);
-            set_lane(&packet.ray, lanes, origin[lanes], s->wi, INFINITY);
+            /* The path it carries past the bounce; Fast GI's short ray looks ao_distance far. */
+            int transmit = dot3(sf->Ng, s->wi) < 0.0;
+            kinds[lanes] = ray_kind(s->kind, transmit, H->seen_by[h]);
+            after[lanes] = path_after(path_at(H, h, H->flags[h]), s->kind, transmit, s->delta, sf->t,
+                                      clears_glass(H->sd[h].c + s->slot, transmit, ds->clear_glass));
+            ao[lanes] = fast_gi_ray(ds, after + lanes) && !bsdf_is(s->kind, BSDF_FLAG_SUBSURFACE);
+            t_max[lanes] = ao[lanes] ? ao_distance_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h],
+                                                      ds->ao_distance) : INFINITY;
+            set_lane(&packet.ray, lanes, origin[lanes], s->wi, t_max[lanes]);
             set_time(&packet.ray, lanes, sf->time);
             owner[lanes] = h;
             if (++lanes < PACKET) continue;
@@ -1169,12 +1195,8 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
         for (int k = 0; k < lanes; k++) {
             /* Each ray passes the objects hidden from its kind (direct.nearest_seen). */
             const ClosureSample *s = sampled + k;
-            int transmit = dot3(H->s[owner[k]].Ng, s->wi) < 0.0;
-            kinds[k] = ray_kind(s->kind, transmit, H->seen_by[owner[k]]);
-            after[k] = path_after(path_at(H, owner[k], H->flags[owner[k]]), s->kind, transmit, s->delta,
-                                  H->s[owner[k]].t, clears_glass(H->sd[owner[k]].c + s->slot, transmit, ds->clear_glass));
             if (packet.hit.geomID[k] != INVALID_ID && ds->geometry->hidden != NULL)
-                see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, k, origin[k], s->wi, INFINITY,
+                see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, k, origin[k], s->wi, t_max[k],
                                 kinds[k], H->s[owner[k]].time);
         }
         embree += ticks() - start;
@@ -1259,6 +1281,7 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->seen_as = kinds[k];
                 r->path = after[k];
                 r->receiver = receiver;
+                r->ao = ao[k];
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = weight[c]; }
                 for (int c = 0; c < 3; c++) { r->mis_O[c] = P[c]; r->mis_N[c] = N != NULL ? N[c] : 0.0; }
                 for (int c = 0; c < 3; c++) r->attenuation[c] = attenuation[c];
@@ -1278,10 +1301,11 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             double below = H->min_pdf[h], next_min = clear || !(pdf_b < below) ? below : pdf_b;
             ShaderKeys next = {&traced, H->pixel[h], H->sample[h], ds->dimension + VERTEX_DIMENSIONS,
                                next_min < BEVEL_MIN_PDF, NULL};
-            FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                                  instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
-                                  kinds[k], after + k, receiver, ds->media != NULL ? sigma : NULL, emission, &next,
-                                  ds->media != NULL ? &inside : NULL, H->s[owner[k]].time};
+            FindingRay finding = {O, D, hit, hit ? t_limit : t_max[k], (int64_t)packet.hit.geomID[k],
+                                  (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k), pdf_b, use_mis,
+                                  kinds[k] == HIDDEN_FROM_CAMERA, P, N, kinds[k], after + k, receiver,
+                                  ds->media != NULL ? sigma : NULL, emission, &next,
+                                  ds->media != NULL ? &inside : NULL, H->s[owner[k]].time, ao[k]};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

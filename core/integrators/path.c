@@ -113,13 +113,15 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         spawn_ray(s.I, s.Ng, D, s.offset, O);
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32);
-        set_lane(&packet.ray, 0, O, D, INFINITY);
+        /* (Fast GI's short ray: as short past each surface, by the object of the surface passed) */
+        double t_max = r->ao ? ao_distance_of(ds->geometry, geometry, prim, instance, ds->ao_distance) : INFINITY;
+        set_lane(&packet.ray, 0, O, D, t_max);
         set_time(&packet.ray, 0, r->time);
         close_packet(&packet.ray, valid, 1);
         clear_hits(&packet);
         ds->intersect(valid, ds->scene, &packet, NULL);
         if (packet.hit.geomID[0] != INVALID_ID && ds->geometry->hidden != NULL)
-            see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, O, D, INFINITY, r->seen_as, r->time);
+            see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, O, D, t_max, r->seen_as, r->time);
         int hit = packet.hit.geomID[0] != INVALID_ID;
         double light_L[3] = {0.0, 0.0, 0.0}, groups_L[3 * MAX_LIGHT_GROUPS];
         for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
@@ -129,9 +131,9 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         instance = instance_of(&packet.hit, 0);
         double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0};
         if (ds->media != NULL) medium_along(ds->media, &inside, sigma, emission);
-        FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
-                              (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission, NULL,
-                              ds->media != NULL ? &inside : NULL, r->time};
+        FindingRay finding = {O, D, hit, hit ? t : t_max, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O,
+                              r->mis_N, (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission,
+                              NULL, ds->media != NULL ? &inside : NULL, r->time, r->ao};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         if (ds->media != NULL) {                    /* (and what reaches the next surface) */
@@ -149,6 +151,40 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         if (!hit) return;
         u = (double)packet.hit.u[0];
         v = (double)packet.hit.v[0];
+    }
+}
+
+/* path.fast_gi_added for hit h of H (Fast GI's Add): alpha x the sum of its diffuse closures' weights x
+ * ao_additive_factor where one cosine-distributed ray about their weighted normal escapes within ao_distance (times
+ * the transparency of the surfaces it passes), into added (3); zero where it has no diffuse closure. */
+NOINLINE static void fast_gi_added(const DirectSettings *ds, const BlockHits *H, int64_t h, double *added)
+{
+    const ShaderResult *sd = H->sd + h;
+    const Surface *s = H->s + h;
+    double weight[3] = {0.0, 0.0, 0.0}, total[3] = {0.0, 0.0, 0.0};
+    for (int c = 0; c < 3; c++) added[c] = 0.0;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *cl = sd->c + k;
+        if (cl->kind < 0 || !bsdf_is(cl->kind, BSDF_FLAG_DIFFUSE)) continue;
+        double w = fabs((cl->weight[0] + cl->weight[1] + cl->weight[2]) / 3.0);
+        for (int c = 0; c < 3; c++) { weight[c] += cl->weight[c]; total[c] += w * cl->N[c]; }
+    }
+    if (weight[0] == 0.0 && weight[1] == 0.0 && weight[2] == 0.0) return;
+    double length = sqrt(dot3(total, total)), u[2];
+    Closure around = {0, {1.0, 1.0, 1.0}, 1.0, {0.0, 0.0, 0.0}, NULL};
+    for (int c = 0; c < 3; c++) around.N[c] = length > 0.0 ? total[c] / length : s->N[c];
+    sample_2d(stream_of((int64_t)ds->seed, AO_DIMENSION + ds->dimension), H->pixel[h], H->sample[h], u);
+    BsdfSample b;
+    lambert_sample(&around, NULL, u, &b);
+    if (!(dot3(s->Ng, b.wi) > 0.0)) return;
+    double O[1][3], D[1][3] = {{b.wi[0], b.wi[1], b.wi[2]}}, T[1][3], t = ds->ao_distance;
+    spawn_ray(s->I, s->Ng, b.wi, s->offset, O[0]);
+    LightPath shadow = {PATH_SHADOW, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
+    transmit_packet(ds->ao_transmitter, 1, O, D, &t, &s->time, &shadow, NULL, NULL, T);
+    for (int c = 0; c < 3; c++) {
+        double alpha = 1.0 - sd->transparency[c];
+        alpha = alpha < 0.0 ? 0.0 : (alpha > 1.0 ? 1.0 : alpha);
+        added[c] = alpha * T[0][c] * (weight[c] * ds->ao_additive_factor);
     }
 }
 
@@ -204,8 +240,9 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
          *  its emission already gathered by the ray) */
         if (clear > limits->transparent_bounces || (see_through && !boundary && clear >= limits->transparent_bounces))
             continue;
+        /* (Fast GI's short ray ends its path where it meets a surface, as past the limits: path.py) */
         if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
-            || tr > limits->transmission_bounces) {
+            || tr > limits->transmission_bounces || r->ao) {
             /* Past its bounce limits the path still looks through the transparent surfaces its ray meets. */
             /* (found lands in H->L, which the path's throughput multiplies: give it r's weight alone) */
             /* (nothing with light samples alone, whose BSDF rays gather nothing: path.through_transparent) */
@@ -428,6 +465,13 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
             for (int64_t i = 0; i < 3 * current->m; i++) current->found[i] = 0.0;
         }
         shadow_rays += direct_light(current, ds, embree);
+        if (ds->ao_additive_factor != 0.0)          /* (Fast GI's Add: to Combined alone, unclamped, as Cycles') */
+            for (int64_t h = 0; h < current->m; h++) {
+                double added[3];
+                fast_gi_added(ds, current, h, added);
+                for (int c = 0; c < 3; c++)
+                    work->extra[current->lane[h]][c] += current->throughput[3 * h + c] * added[c];
+            }
         work->rays.n = 0;
         ds->continuing = &work->rays;
         embree[1] += bsdf_rays(current, ds);

@@ -28,6 +28,11 @@ closures of a hit that a diffuse bounce's ray reached (the light of caustics, fo
 glass, then never reaches a diffuse surface), and sample clamping (core/integrators/clamp.py) caps
 each contribution.
 
+Cycles' Fast GI Approximation (Replace; RenderSettings ao_bounces, ao_factor, ao_distance) shortens the rest: past
+ao_bounces bounces (vertex.fast_gi_ray) a path's ray looks ao_distance far, the world it escapes to counts ao_factor
+times, and the surface it meets ends the path (its emission gathered, its transparent surfaces looked through, as past
+the bounce limits): ambient occlusion in place of the light of later bounces.
+
 Object > Visibility as Cycles reads it: every ray has a kind (camera; after a bounce diffuse, glossy or
 transmission, rays.ray_kind; straight through a Transparent closure the kind it had) and passes the objects
 hidden from that kind (Ray Visibility). A holdout object met by a camera path is a hole in the film
@@ -166,20 +171,54 @@ def caustics_filter(settings, after_diffuse: np.ndarray):
     return np.where(after_diffuse, bits, 0)
 
 
+def fast_gi_added(ctx: Context, surface, shader, pixel: np.ndarray, sample: np.ndarray, dimension: int) -> np.ndarray:
+    """Fast GI's Add method at the m hits of `surface` with `shader` (pixel, sample (m,) int64 their keys): the light
+    (m, 3) float64 each adds to Combined, alpha x the sum of its diffuse closures' weights x ao_additive_factor where
+    one cosine-distributed ray about their weighted normal (sum of N |mean weight|, the shading normal where none)
+    escapes within ao_distance (times the transparency of the surfaces it passes: passes.ambient_occlusion), as
+    Cycles' integrate_surface_ao and surface_shader_ao; zero with the setting off (0) or an integrator other than
+    path."""
+    s = ctx.settings
+    m = len(surface.I)
+    added = np.zeros((m, 3))
+    factor = getattr(s, "ao_additive_factor", 0.0)
+    if not factor or s.integrator != "path" or m == 0:
+        return added
+    closures = shader.closures
+    weight, normal = np.zeros((m, 3)), np.zeros((m, 3))
+    for slot in range(closures.kind.shape[1]):
+        diffuse = materials_.has(closures.kind[:, slot], materials_.BSDFFlags.DIFFUSE)
+        w = np.where(diffuse[:, None], closures.weight[:, slot], 0.0)
+        weight += w
+        normal += np.abs(w.mean(axis=1))[:, None] * closures.N[:, slot]
+    rows = np.flatnonzero((weight != 0.0).any(axis=1))
+    if len(rows) == 0:
+        return added
+    length = np.linalg.norm(normal[rows], axis=1, keepdims=True)
+    N = np.where(length > 0.0, normal[rows] / np.where(length > 0.0, length, 1.0), surface.N[rows])
+    T = passes_.ambient_occlusion(ctx, surface.I[rows], surface.Ng[rows], surface.vertices[rows], N, pixel[rows],
+                                  sample[rows], dimension)
+    alpha = np.clip(1.0 - shader.transparency[rows], 0.0, 1.0)
+    added[rows] = alpha * T * (weight[rows] * factor)
+    return added
+
+
 def hit_materials(ctx: Context, ray, rows: np.ndarray) -> np.ndarray:
     """The material rows (k,) int of the surfaces the BSDF rays `rows` of `ray` hit."""
     return ctx.geometry.triangle_data(ray.hits.prim[rows], smooth=False).material
 
 
 def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray, passed: np.ndarray,
-                        limit=np.inf, groups=None) -> np.ndarray:
+                        limit=np.inf, groups=None, ao=None) -> np.ndarray:
     """The light (k, 3) behind the transparent surfaces that the ended paths' last rays (`rows` of the BsdfRay
     `ray`, carrying `weight` (k, 3), after `passed` (k,) clear surfaces) meet: each surface multiplies by its
     transparency and the ray goes straight on, finding lamps, emission and the world as a BSDF ray does, weighed
     by MIS with the pdf of the path's last real bounce and the light pdfs measured from that bounce (ray.mis_O,
     ray.mis_N: Cycles' mis_origin); up to the transparent-bounce limit. Each find is capped at `limit` (scalar or
     (k,), sample clamping). Nothing where BSDF rays gather nothing (light_sampling "light", as bsdf_ray). groups: a
-    lightgroups.GroupLight of the k rows that receives the light found by the group of its source, or None."""
+    lightgroups.GroupLight of the k rows that receives the light found by the group of its source, or None. ao: (k,)
+    bool the rows that are Fast GI's short rays (vertex.fast_gi_ray), or None: past each surface such a ray looks
+    ao_distance far again, and the world it escapes to is scaled by ao_factor (Cycles' tmax at every intersect)."""
     s = ctx.settings
     found = np.zeros((len(rows), 3))
     if s.light_sampling == "light" or not ctx.extra.get("bsdf_rays", False):
@@ -213,14 +252,18 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
             break
         # 2. On from just past it, straight ahead, gathering what the ray finds.
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
-        hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive], times)
+        short = None if ao is None else ao[alive]
+        t_max = (np.full(len(alive), np.inf) if ao is None     # (from the surface passed: its object's own)
+                 else np.where(short, ctx.geometry.ao_distances(surface.prim[go], s.ao_distance), np.inf))
+        hits = nearest_seen(ctx, O, D, t_max, ray.seen_as[rows][alive], times)
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
         stretch = None if media is None else media.along(inside[alive], O, D)
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
                                         seen_as=ray.seen_as[rows][alive], stretch=stretch,
                                         paths=graph_.paths_at(paths, alive)._replace(transparent=passed[alive]),
-                                        receiver=None if ray.receiver is None else ray.receiver[rows][alive])
+                                        receiver=None if ray.receiver is None else ray.receiver[rows][alive],
+                                        t_max=t_max, ao=short)
         if media is not None:                    # (and what reaches the next surface)
             T[alive] *= stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
@@ -420,6 +463,10 @@ class PathTracing(Integrator):
                                                emitted=emitted, found=finds)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
+            # (Fast GI's Add method: ambient occlusion at every vertex, to Combined alone, unclamped, as Cycles')
+            if getattr(s, "ao_additive_factor", 0.0):
+                np.add.at(L_out, owner, throughput * fast_gi_added(ctx, surface, shader, pixel[owner], sample[owner],
+                                                                   dimension))
             if groups is not None:
                 groups.add_rows(owner, vertex_groups, throughput)
             if feats is not None:
@@ -452,10 +499,14 @@ class PathTracing(Integrator):
             vb = bounds[ray.rows] + (is_transparent & boundary)
             within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
                       & (tr <= s.transmission_bounces))
+            # (Fast GI's short rays end their paths where they meet a surface, as past the bounce limits: Cycles'
+            #  integrator_intersect_terminate, its emission gathered, its transparent surfaces looked through)
+            short = np.zeros(len(bounces), bool) if ray.ao is None else ray.ao
+            bouncing = within & ~short
             # (the surface after the last transparent bounce allowed ends the path, Cycles' terminate-on-next-surface:
             #  the ray gathered its emission, nothing more)
             last_clear = is_transparent & np.logical_not(boundary) & (tp >= s.transparent_max_bounces)
-            going = (ray.hits.hit & within & (tp <= s.transparent_max_bounces) & ~last_clear
+            going = (ray.hits.hit & bouncing & (tp <= s.transparent_max_bounces) & ~last_clear
                      & (vb <= VOLUME_BOUNDS_MAX))
             if data is not None:
                 # A camera chain's ray straight on through a transparent surface: what it passes and escapes to.
@@ -466,12 +517,12 @@ class PathTracing(Integrator):
                                   None if media is None else media.along(ray.inside[chain], ray.O[chain], ray.D[chain]))
             # A path past its bounce limits still looks through the transparent surfaces its last ray meets, to
             # the light behind them (Cycles' terminate-after-transparent): no more bounces, only clear ones.
-            ended = np.flatnonzero(ray.hits.hit & ~within & (tp <= s.transparent_max_bounces))
+            ended = np.flatnonzero(ray.hits.hit & ~bouncing & (tp <= s.transparent_max_bounces))
             ended = ended[ctx.materials.may_pass[hit_materials(ctx, ray, ended)]] if len(ended) else ended
             if len(ended):
                 behind_groups = lightgroups.tally(ctx, len(ended))
                 behind = through_transparent(ctx, ray, ended, throughput[ray.rows[ended]] * weight[ended],
-                                             tp[ended], cap[ray.rows[ended]], behind_groups)
+                                             tp[ended], cap[ray.rows[ended]], behind_groups, short[ended])
                 L_out[owner[ray.rows[ended]]] += behind
                 if groups is not None:
                     groups.add_rows(owner[ray.rows[ended]], behind_groups)

@@ -326,8 +326,15 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         O[moved] = P[moved[portal]]
     transmit = np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0
     seen_as = ray_kind(bs.kind[go], transmit, np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[go])
-    hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as,
-                        None if surface.time is None else surface.time[go])
+    threshold = clear_glass_threshold(s)
+    through_clear_glass = (clears_glass(bs.kind[go], shader.closures.params[go, bs.slot[go]], transmit, threshold)
+                           if threshold >= 0.0 else None)
+    after = path_after(graph_.paths_at(light_path, go), bs.kind[go], transmit, bs.delta[go], surface.t[go],
+                       through_clear_glass)
+    # Fast GI (Replace): a ray past AO Bounces looks AO Distance far (and its path ends where it meets a surface).
+    ao = fast_gi_ray(s, after) & ~materials_.has(bs.kind[go], materials_.BSDFFlags.SUBSURFACE)
+    t_max = np.where(ao, ctx.geometry.ao_distances(surface.prim[go], s.ao_distance), np.inf)
+    hits = nearest_seen(ctx, O, D, t_max, seen_as, None if surface.time is None else surface.time[go])
     pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
     # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
     # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
@@ -343,11 +350,6 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         if carried_origin is not None:
             mis_O = np.where(clear[:, None], carried_origin[go], O)
             mis_N = np.where(clear[:, None], carried_N[go], mis_N)
-    threshold = clear_glass_threshold(s)
-    through_clear_glass = (clears_glass(bs.kind[go], shader.closures.params[go, bs.slot[go]], transmit, threshold)
-                           if threshold >= 0.0 else None)
-    after = path_after(graph_.paths_at(light_path, go), bs.kind[go], transmit, bs.delta[go], surface.t[go],
-                       through_clear_glass)
     # Into a BSSRDF: a walk inside the mesh, and a ray that reaches its exit from outside instead of the one traced.
     walks = np.flatnonzero(materials_.has(bs.kind[go], materials_.BSDFFlags.SUBSURFACE))
     weight = bs.weight[go]
@@ -397,7 +399,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         if len(walks):
             attenuation[walks] = 1.0                     # (the walk's ray is no ray through the medium outside)
     ray = BsdfRay(go, O, D, hits, weight, bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
-                  after, ray_inside, attenuation, receiver, bs.slot[go])
+                  after, ray_inside, attenuation, receiver, bs.slot[go], ao)
     for kind, mask in (("reflect", ~ray.transmit & ~portal), ("refract", ray.transmit & ~portal), ("portal", portal)):
         if mask.any():
             recorder.rays(kind, O[mask], D[mask], t_hit[mask])
@@ -430,7 +432,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
             N=pick(mis_N),
             mis_O=pick(mis_O), groups=ray_groups, seen_as=pick(seen_as),
             stretch=None if stretch is None else stretch.rows(traced_rays),
-            paths=graph_.paths_at(after, traced_rays), receiver=pick(receiver), keys=keys)
+            paths=graph_.paths_at(after, traced_rays), receiver=pick(receiver), keys=keys, t_max=pick(t_max),
+            ao=pick(ao))
         if groups is not None:
             groups.add_rows(go[traced_rays], ray_groups, bs.weight[go[traced_rays]])
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -438,7 +441,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
                                              mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch,
-                                             paths=after, receiver=receiver, keys=keys)
+                                             paths=after, receiver=receiver, keys=keys, t_max=t_max, ao=ao)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -500,7 +503,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
                  camera=None, N=None, mis_O=None, groups=None, seen_as=None, stretch=None,
-                 paths=None, receiver=None, keys=None) -> np.ndarray:
+                 paths=None, receiver=None, keys=None, t_max=None, ao=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -524,12 +527,15 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     emitter that does not light the receiver's object (Light Linking), and no emitter object whose shadows a blocker
     set casts (Shadow Linking: its light samples alone find it, linking.found_by_bounces).
     keys: (pixel, sample (k,) int64, the dimension shift of the vertex the rays reach, min_pdf (k,)) with which a
-    textured emitter's Ambient Occlusion and Bevel nodes trace (shader_rays.for_hits), or None: they trace nothing."""
+    textured emitter's Ambient Occlusion and Bevel nodes trace (shader_rays.for_hits), or None: they trace nothing.
+    t_max: (k,) how far the rays looked (None: inf): one that escapes finds no lamp beyond. ao: (k,) bool the rays of
+    Fast GI (fast_gi_ray), or None: the world's light they escape to is scaled by the settings' ao_factor (its MIS
+    weight kept, as Cycles' integrate_background)."""
     light_L = np.zeros((len(O), 3))
     sigma = stretch
     if stretch is not None:
         light_L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
-    t_limit = np.where(hits.hit, hits.t, np.inf)
+    t_limit = np.where(hits.hit, hits.t, np.inf if t_max is None else t_max)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
     # From mis_O: how far each ray's end (inf: none) and its start O are.
     t_mis = t_limit
@@ -642,10 +648,23 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         if sampler is not None:
             w = np.where(use_mis[missed], power_heuristic(pdf_b[missed],
                          light_count(ctx, sampler) * sampler.pdf(D[missed])), 1.0)
+        if ao is not None:
+            L_world = L_world * np.where(ao[missed], ctx.settings.ao_factor, 1.0)[:, None]
         light_L[missed] += L_world * w[:, None]
         if groups is not None:
             groups.add(missed, L_world * w[:, None], groups.groups.world)
     return light_L
+
+
+def fast_gi_ray(settings, paths) -> np.ndarray:
+    """Which rays (k,) bool, carrying `paths` (graph.LightPaths of k rays, their counters past the bounce that sent
+    them: rays.path_after), are Fast GI's short rays (Cycles' path_state_ao_bounce, Replace): with ao_bounces and
+    ao_factor set, those past ao_bounces bounces, counted as bounce - transmission - (1 if glossy > 0) + 1."""
+    bounces = getattr(settings, "ao_bounces", 0)
+    if not bounces or not getattr(settings, "ao_factor", 0.0) or settings.integrator != "path":
+        return np.zeros(len(paths.bounce), bool)
+    depth = np.asarray(paths.bounce) - np.asarray(paths.transmission) - (np.asarray(paths.glossy) > 0) + 1
+    return depth > bounces
 
 
 def shadow_blockers(ctx: Context, light, ls, rows: np.ndarray):
@@ -739,7 +758,8 @@ class BsdfRay(NamedTuple):
     inside (k, V) the media the ray is in (None: no media), and attenuation (k, 3) what they let through to the hit
     (None: 1); receiver (k,) int64 the triangle each ray left, whose object decides which emitters its finds may
     light (Light Linking); slot (k,) int64 the sampled closure's slot (None: unknown), its own direction's bump
-    shadowing as sampled (lightpasses.sample_shares)
+    shadowing as sampled (lightpasses.sample_shares); ao (k,) bool Fast GI's short rays (fast_gi_ray; None: none),
+    whose paths end at their hit
     """
 
     rows: np.ndarray
@@ -759,6 +779,7 @@ class BsdfRay(NamedTuple):
     attenuation: np.ndarray = None
     receiver: np.ndarray = None
     slot: np.ndarray = None
+    ao: np.ndarray = None
 
 
 def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:

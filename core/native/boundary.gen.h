@@ -756,6 +756,7 @@ its Object and Instancer attributes (geometry.instance_info) */
 (WorldGeometry.instance_links), NULL: nothing is linked */
     const double *terminator;               /* (n, 2) each instance's Shadow Terminator Geometry Offset (-1: the render's) and Shading
 Offset multiplier (WorldGeometry.instance_terminator), NULL: none has its own */
+    const double *ao_distance;              /* (n,) each instance's own Fast GI AO Distance (WorldGeometry.instance_ao_distance, 0: the render's), NULL: none has its own */
     const double *origin;                   /* (3,) the world point the vertices are relative to (the Geometry node's Position adds it) */
 };
 
@@ -818,6 +819,10 @@ struct ChunkParams {
     int32_t walks;                          /* 1: some material walks subsurface scattering (direct: the path tracer with no bounces) */
     int32_t caustics;                       /* FILTER_* bits after a diffuse bounce (path.caustics_bits) */
     double filter_glossy;                   /* Cycles' Filter Glossy, 0: off (path.filter_glossy_roughness) */
+    int32_t ao_bounces;                     /* Fast GI (Replace): a ray past these bounces is short and ends its path (vertex.fast_gi_ray); 0: off */
+    double ao_factor;                       /* Fast GI: the world's light a short ray escapes to is scaled by this */
+    double ao_distance;                     /* Fast GI: how far a short ray looks (and Add's ambient occlusion rays) */
+    double ao_additive_factor;              /* Fast GI (Add): every path vertex adds ambient occlusion times its diffuse closures' weights times this (path.fast_gi_added); 0: off */
     double clamp_direct;                    /* sample clamping's caps (clamp.limits; inf: none) */
     double clamp_indirect;
     int32_t light_passes;                   /* 1: sum the light passes (lightpasses.c) into ChunkOut.light */
@@ -1321,9 +1326,9 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(1445416722100176955);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7607883560999792480);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3538087801514139076);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(2031733600485699727);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);

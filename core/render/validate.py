@@ -40,7 +40,7 @@ def validate(scene, settings) -> None:
     if settings.integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {settings.integrator!r}")
     for name in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
-                 "transparent_max_bounces", "volume_bounces", "min_light_bounces"):
+                 "transparent_max_bounces", "volume_bounces", "min_light_bounces", "ao_bounces"):
         value = getattr(settings, name)
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= MAX_BOUNCES:
             raise ValueError(f"{name.replace('_', ' ')} must be a whole number from 0 to {MAX_BOUNCES}, got {value!r}")
@@ -48,6 +48,10 @@ def validate(scene, settings) -> None:
         value = getattr(settings, name)
         if not (isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value) and value >= 0):
             raise ValueError(f"{name.replace('_', ' ')} must be a finite number >= 0 (0: no clamping), got {value!r}")
+    for name in ("ao_factor", "ao_additive_factor", "ao_distance"):      # (Fast GI; the Ambient Occlusion pass)
+        value = getattr(settings, name)
+        if not (isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)):
+            raise ValueError(f"{name.replace('_', ' ')} must be a finite number, got {value!r}")
     if settings.fresnel not in ("exact", "schlick"):
         raise ValueError(f"fresnel must be 'exact' or 'schlick', got {settings.fresnel!r}")
     if settings.light_sampling not in ("mis", "light", "bsdf"):

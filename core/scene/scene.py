@@ -98,6 +98,8 @@ class Instance:
     terminator_shading: Shadow Terminator > Shading Offset (0..1): Cycles bends the cosine of the light its closures
                reflect so that it reaches 0 before the terminator (core/materials/closures.py terminator_term)
     (Both only with RenderSettings.terminator_fix, the lecture's switch for Cycles' shadow terminator.)
+    ao_distance: Object > Visibility > Fast GI Approximation > AO Distance: how far Fast GI's (Replace) rays leaving
+               it look (0: the render's RenderSettings.ao_distance)
     attributes: the Attribute node's Object and Instancer attributes of this object, name -> RGBA (4,) (Cycles'
                object attributes, looked up at export; Scene.instance_attributes orders them), or None: none
     dupli_generated, dupli_uv: an instance's Generated (3,) and UV (2,) From Instancer (the Texture Coordinate node):
@@ -140,6 +142,7 @@ class Instance:
     shadow_membership: int = ALL_SETS
     terminator_offset: Optional[float] = None
     terminator_shading: float = 0.0
+    ao_distance: float = 0.0
     attributes: Optional[dict] = None
     dupli_generated: Optional[tuple] = None
     dupli_uv: Optional[tuple] = None

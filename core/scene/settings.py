@@ -79,7 +79,14 @@ class RenderSettings:
                       those asked for
     cryptomatte_depth: the (id, coverage) ranks each Cryptomatte pass keeps per pixel (View Layer >
                       Passes > Cryptomatte > Levels; 6 by default, two per RGBA pass)
-    ao_distance: how far the Ambient Occlusion pass's rays look (Blender's World > Ambient Occlusion > Distance)
+    ao_distance: how far the Ambient Occlusion pass's rays look (Blender's World > Ambient Occlusion > Distance),
+                      and Fast GI's rays
+    ao_bounces, ao_factor: Cycles' Fast GI Approximation, Replace (Render > Light Paths > Fast GI: AO Bounces; World >
+                      Ambient Occlusion > Factor): a path's BSDF ray past ao_bounces bounces (diffuse ones, and the
+                      first glossy one; core/integrators/path.py fast_gi_ray) looks ao_distance far and ends at the
+                      surface it meets; escaping, it brings the world's light times ao_factor. 0 for either: off
+    ao_additive_factor: Cycles' Fast GI, Add (the world's AO Factor): every path vertex adds ambient occlusion (one
+                      ray ao_distance long) times its diffuse closures' weights times this (path.fast_gi_added); 0: off
     mist_start, mist_depth, mist_falloff: the Mist pass's mapping of the distance d from the camera (World > Mist
                       Pass: Start, Depth, Falloff as an exponent: Quadratic 2, Linear 1, Inverse Quadratic 0.5):
                       clamp((d - start) / depth, 0, 1) ^ falloff (core/integrators/passes.py)
@@ -145,6 +152,9 @@ class RenderSettings:
     shadow_rays_for_backfacing: bool = False
     passes: Sequence[str] = ()
     ao_distance: float = 10.0
+    ao_bounces: int = 0
+    ao_factor: float = 0.0
+    ao_additive_factor: float = 0.0
     mist_start: float = 0.0
     mist_depth: float = 100.0
     mist_falloff: float = 1.0
