@@ -54,6 +54,12 @@ def render_both(name: str, folder, percentage: int = 50) -> tuple:
         scene.world.mist_settings.start, scene.world.mist_settings.depth = 3.0, 10.0
         scene.world.mist_settings.falloff = "LINEAR"
     scene.render.resolution_percentage = percentage
+    return render_passes_both(scene, folder, name)
+
+
+def render_passes_both(scene, folder, stem: str) -> tuple:
+    """`scene` rendered at SAMPLES samples (no adaptive sampling) by Primer and by Cycles into multilayer EXRs
+    `stem`_ENGINE.exr in `folder`: two dicts pass -> (channels, (H, W, c) float32)."""
     scene.primer.samples = SAMPLES
     scene.primer.use_adaptive_sampling = False
     out = []
@@ -61,7 +67,7 @@ def render_both(name: str, folder, percentage: int = 50) -> tuple:
         scene.render.engine = engine
         if engine == "CYCLES":
             configure_cycles_reference(scene, SAMPLES)
-        path = str(folder / f"{name}_{engine}.exr")
+        path = str(folder / f"{stem}_{engine}.exr")
         scene.render.image_settings.media_type = "IMAGE"
         configure_output(scene, path)
         scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
@@ -282,20 +288,7 @@ def test_shader_aovs_match_cycles_inside_objects(primer, tmp_path):
         tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["UV"], uv.inputs["Color"])
         tree.nodes.new("ShaderNodeGroup").node_tree = group
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 96, 72, 100
-    scene.primer.samples = SAMPLES
-    scene.primer.use_adaptive_sampling = False
-    out = []
-    for engine in ("PRIMER", "CYCLES"):
-        scene.render.engine = engine
-        if engine == "CYCLES":
-            configure_cycles_reference(scene, SAMPLES)
-        path = str(tmp_path / f"aov_{engine}.exr")
-        scene.render.image_settings.media_type = "IMAGE"
-        configure_output(scene, path)
-        scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
-        bpy.ops.render.render(write_still=True)
-        out.append(read_channels(path))
-    mine, cycles = out
+    mine, cycles = render_passes_both(scene, tmp_path, "aov")
     for name in ("AovUV", "AovHalf"):
         assert mine[name][0] == cycles[name][0] and mine[name][1].shape == cycles[name][1].shape, name
     mask = inside(mine, cycles)

@@ -161,17 +161,21 @@ def test_the_compiled_light_passes_follow_the_reference(integrator):
     """The C kernels split the same samples the same way as the Python reference (the images' tolerance of
     tests/test_compiled.py, relative to each pass's largest value)."""
     from test_compiled import IMAGE_ATOL, IMAGE_RTOL
-    scene = sum_scene()
     settings = RenderSettings(width=40, height=30, samples=4, integrator=integrator, max_bounces=4,
                               passes=LIGHT_PASSES)
+    assert_light_passes_agree(sum_scene(), settings, IMAGE_RTOL, IMAGE_ATOL)
+
+
+def assert_light_passes_agree(scene, settings, rtol: float, atol: float) -> None:
+    """`scene` rendered with `settings` by the compiled kernel and by the Python reference: the image and every light
+    pass agree within rtol and atol (the passes' relative to each one's largest value)."""
     compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
     reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
     assert compiled.stats.kernels == "compiled"
-    np.testing.assert_allclose(compiled.image, reference.image, rtol=IMAGE_RTOL, atol=IMAGE_ATOL)
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=rtol, atol=atol)
     for name in LIGHT_PASSES:
         a, b = compiled.aux[name], reference.aux[name]
-        np.testing.assert_allclose(a, b, rtol=IMAGE_RTOL, atol=IMAGE_ATOL * max(1.0, float(np.abs(b).max())),
-                                   err_msg=name)
+        np.testing.assert_allclose(a, b, rtol=rtol, atol=atol * max(1.0, float(np.abs(b).max())), err_msg=name)
 
 
 def test_safe_divide_even_color_fills_channels_with_a_zero_divisor_as_cycles():

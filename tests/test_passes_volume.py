@@ -8,7 +8,6 @@ pixel with media that scatter and emit, with and without Volume Bounces, on both
 follow the reference's."""
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -154,17 +153,10 @@ def test_the_compiled_volume_passes_follow_the_reference():
     """The C kernels split the same samples of a scattering, emitting medium with Volume Bounces the same way as
     the Python reference (the images' tolerance of tests/test_compiled.py, relative to each pass's largest value)."""
     from test_compiled import IMAGE_ATOL, IMAGE_RTOL
+    from test_passes_light import assert_light_passes_agree
     settings = RenderSettings(width=40, height=30, samples=4, integrator="path", max_bounces=4, volume_bounces=2,
                               passes=LIGHT_PASSES)
-    scene = fog_scene("COEFFICIENTS")
-    compiled = render(scene, dataclasses.replace(settings, kernels="compiled"))
-    reference = render(scene, dataclasses.replace(settings, kernels="numpy"))
-    assert compiled.stats.kernels == "compiled"
-    np.testing.assert_allclose(compiled.image, reference.image, rtol=IMAGE_RTOL, atol=IMAGE_ATOL)
-    for name in LIGHT_PASSES:
-        a, b = compiled.aux[name], reference.aux[name]
-        np.testing.assert_allclose(a, b, rtol=IMAGE_RTOL, atol=IMAGE_ATOL * max(1.0, float(np.abs(b).max())),
-                                   err_msg=name)
+    assert_light_passes_agree(fog_scene("COEFFICIENTS"), settings, IMAGE_RTOL, IMAGE_ATOL)
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
