@@ -431,8 +431,8 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
         if "vector" in exported.settings.passes and not motion.blurs(scene, depsgraph.view_layer):
             # The Vector pass: the camera and the objects at the frames before and after (Cycles' motion pass).
             exported.scene.vector_cameras = motion.sample_vector_frames(
-                engine, depsgraph, camera_object, export.export_camera, exported.warnings, exported.scene.instances,
-                exported.instance_keys)
+                engine, depsgraph, camera_object, exported.scene.camera, export.export_camera, exported.warnings,
+                exported.scene.instances, exported.instance_keys)
         record.export_seconds = time.perf_counter() - start
         record.meshes_read = exported.meshes_read
         record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))

@@ -141,6 +141,12 @@ def _object_state(depsgraph) -> dict:
     return state
 
 
+def named(names) -> str:
+    """Up to NAMED of `names`, sorted, joined for a note ("'A', 'B' and 2 more")."""
+    shown = ", ".join(sorted(names)[:NAMED])
+    return shown + (f" and {len(names) - NAMED} more" if len(names) > NAMED else "")
+
+
 def step_times(steps: int) -> list:
     """The relative times in [-1, 1] of the shutter of `steps` motion steps, evenly spaced from open to close."""
     return [2.0 * k / (steps - 1) - 1.0 for k in range(steps)]
@@ -174,9 +180,6 @@ def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, fr
                 f"{its} vertices but keeps {its} smooth normals, which are per face corner (sharp edges or custom "
                 f"normals), as they are at frame {frame:g} (per-vertex normals are interpolated over the shutter)")
 
-    def named(names):
-        shown = ", ".join(sorted(names)[:NAMED])
-        return shown + (f" and {len(names) - NAMED} more" if len(names) > NAMED else "")
     parts = ([f"{named(moved)} move{'s' if len(moved) == 1 else ''}"] if moved else []) + \
             ([f"{named(deformed)} deform{'s' if len(deformed) == 1 else ''}"] if deformed else [])
     them, they = ("it", "it is") if len(moved) + len(deformed) == 1 else ("them", "they are")
@@ -225,17 +228,17 @@ def give_motion(instances, instance_keys: dict, states: dict, meshes=()) -> tupl
     return moved, deformed, smooth
 
 
-def sample_vector_frames(engine, depsgraph, camera_object, export_camera, warnings: list, instances=(),
+def sample_vector_frames(engine, depsgraph, camera_object, camera, export_camera, warnings: list, instances=(),
                          instance_keys=None) -> tuple:
     """The Vector pass's frames (Cycles' motion pass, which it writes only without motion blur): the camera at the
-    frames before and after the one rendered (Scene.vector_cameras), read by moving the scene there with
+    frames before and after the one rendered (Scene.vector_cameras; `camera`, the frame's exported one, where its
+    Motion Blur is off), read by moving the scene there with
     engine.frame_set and back; each exported instance (core Scene.instances, placement_key by index in
     `instance_keys`) whose transform differs there given Instance.vector_motion. Objects that deform between the
     frames, and a panoramic camera, are noted in `warnings` (Primer's pass leaves their motion out)."""
     scene = depsgraph.scene
     frame, subframe = scene.frame_current, scene.frame_subframe
     cameras, states = [], []
-    camera = export_camera(camera_object.evaluated_get(depsgraph), [])
     try:
         for step in (-1, 1):                        # (Cycles: the shutter two frames long around the frame)
             engine.frame_set(frame + step, subframe)
@@ -258,10 +261,8 @@ def sample_vector_frames(engine, depsgraph, camera_object, export_camera, warnin
                                                                 or not np.array_equal(shapes[0], shapes[1])):
             deformed.add(key[0])
     if deformed:
-        shown = ", ".join(sorted(deformed)[:NAMED]) + (f" and {len(deformed) - NAMED} more"
-                                                       if len(deformed) > NAMED else "")
-        warnings.append(f"the Vector pass: {shown} deform{'s' if len(deformed) == 1 else ''} between frames; "
-                        "Primer's pass carries only the objects' transforms and the camera's motion")
+        warnings.append(f"the Vector pass: {named(deformed)} deform{'s' if len(deformed) == 1 else ''} between "
+                        "frames; Primer's pass carries only the objects' transforms and the camera's motion")
     if any(camera.type == "PANO" for camera in cameras):
         warnings.append("the Vector pass of a panoramic camera is not mapped by Primer (it stays 0)")
     return tuple(cameras)

@@ -449,10 +449,11 @@ class VectorTables(NamedTuple):
 
 
 def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool) -> VectorTables:
-    """The VectorTables of a scene rendered width x height with `pixel_aspect`; blurred: motion blur is on. (A
-    panoramic camera's pass stays 0: Primer does not map its motion, addon/export.py says so.)"""
+    """The VectorTables of a scene rendered width x height with `pixel_aspect`; blurred: motion blur is on (the pass
+    is 0, as Cycles writes it). (A panoramic camera's pass stays 0: Primer does not map its motion,
+    addon/motion.py sample_vector_frames says so.)"""
     cameras = scene.vector_cameras or (scene.camera, scene.camera)
-    if any(camera.type == "PANO" for camera in (scene.camera, *cameras)):
+    if blurred or any(camera.type == "PANO" for camera in (scene.camera, *cameras)):
         return VectorTables(np.zeros((0, 3, 4)), np.zeros((0, 3, 4)), np.zeros((3, 4, 4)), 1)
     raster = np.stack([camera_.world_to_raster(camera, width, height, tuple(pixel_aspect))
                        for camera in (cameras[0], scene.camera, cameras[1])])
@@ -463,7 +464,7 @@ def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool) -
             inverse = np.linalg.inv(np.asarray(instance.matrix, np.float64))
             for k in range(2):
                 moves[k][i] = (np.asarray(instance.vector_motion[k], np.float64) @ inverse)[:3]
-    return VectorTables(moves[0], moves[1], raster, int(blurred))
+    return VectorTables(moves[0], moves[1], raster, 0)
 
 
 def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray) -> np.ndarray:

@@ -72,7 +72,7 @@ from . import subsurface as subsurface_
 from . import volume as volume_
 from .rays import camera_back, camera_cones, camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
-from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex
+from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex, short_ray_lengths
 from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_VOLUME_SCATTER, HOLDOUT
 
 # The most volume-only boundaries a path or a shadow ray crosses (Cycles' VOLUME_BOUNDS_MAX: a guard against a ray
@@ -254,7 +254,7 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         short = None if ao is None else ao[alive]
         t_max = (np.full(len(alive), np.inf) if ao is None     # (from the surface passed: its object's own)
-                 else np.where(short, ctx.geometry.ao_distances(surface.prim[go], s.ao_distance), np.inf))
+                 else short_ray_lengths(ctx, surface.prim[go], short))
         hits = nearest_seen(ctx, O, D, t_max, ray.seen_as[rows][alive], times)
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
         stretch = None if media is None else media.along(inside[alive], O, D)

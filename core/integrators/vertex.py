@@ -333,7 +333,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
                        through_clear_glass)
     # Fast GI (Replace): a ray past AO Bounces looks AO Distance far (and its path ends where it meets a surface).
     ao = fast_gi_ray(s, after) & ~materials_.has(bs.kind[go], materials_.BSDFFlags.SUBSURFACE)
-    t_max = np.where(ao, ctx.geometry.ao_distances(surface.prim[go], s.ao_distance), np.inf)
+    t_max = short_ray_lengths(ctx, surface.prim[go], ao)
     hits = nearest_seen(ctx, O, D, t_max, seen_as, None if surface.time is None else surface.time[go])
     pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
     # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
@@ -665,6 +665,15 @@ def fast_gi_ray(settings, paths) -> np.ndarray:
         return np.zeros(len(paths.bounce), bool)
     depth = np.asarray(paths.bounce) - np.asarray(paths.transmission) - (np.asarray(paths.glossy) > 0) + 1
     return depth > bounces
+
+
+def short_ray_lengths(ctx: Context, prim: np.ndarray, ao: np.ndarray) -> np.ndarray:
+    """How far rays leaving the triangles `prim` (k,) int64 look: (k,) float64 inf, and where `ao` (k,) bool (Fast
+    GI's short rays, fast_gi_ray) their object's own AO Distance or the render's (geometry.ao_distances)."""
+    t_max = np.full(len(prim), np.inf)
+    if ao.any():
+        t_max[ao] = ctx.geometry.ao_distances(prim[ao], ctx.settings.ao_distance)
+    return t_max
 
 
 def shadow_blockers(ctx: Context, light, ls, rows: np.ndarray):
