@@ -194,7 +194,7 @@ COVERAGE = {
                "use_pass_cryptomatte_asset use_pass_cryptomatte_material use_pass_cryptomatte_object "
                "pass_cryptomatte_depth": "engine.py, export.export_scene (Cryptomatte)",
                "lightgroups": "lightgroups.group_names", "material_override": "export.export_scene",
-               "aovs": "export.shader_aovs (the shader AOVs written), unmodelled.world_aovs (the world's, noted)",
+               "aovs": "export.shader_aovs (the shader AOVs written; the world's AOV Outputs too: export.export_world)",
                "use_strand": "export.export_scene (Filter > Strands off: no curves nor particle hair, as in Cycles)",
                "use_volumes": "export.media_of_layer (off: no media)",
                "pass_alpha_threshold": "export.export_scene (RenderSettings.pass_alpha_threshold: the data "

@@ -983,8 +983,12 @@ def media_of_layer(use_volumes: bool, materials: list, world: World) -> tuple:
 def export_world(world, warnings: list, kernels: str = "compiled") -> World:
     """The core World of a Blender world (_export_world), with its Ray Visibility for bounces read (world_hidden):
     rays of a kind it hides from find nothing where they escape, and its light samples light no closure of that
-    kind (no scattering point for Volume Scatter), as Cycles' SHADER_EXCLUDE_* flags."""
+    kind (no scattering point for Volume Scatter), as Cycles' SHADER_EXCLUDE_* flags; and its AOV Output nodes
+    (World.aovs: what camera rays that escape write into the shader AOVs, core/integrators/passes.py)."""
     core = _export_world(world, warnings, kernels)
+    aovs = materials_.aov_outputs(world, warnings, kind="world", kernels=kernels) if world is not None else []
+    if aovs:
+        core = dataclasses.replace(core, aovs=aovs)
     hidden = world_hidden(world)
     if hidden and core.lights:
         core = dataclasses.replace(core, hidden=hidden)

@@ -1174,14 +1174,14 @@ def shader_nodes(material, warnings: list) -> list:
     return out
 
 
-def aov_outputs(material, warnings: list) -> list:
-    """The material's AOV Output nodes as core Material.aovs [(AOV name, Color: (3,) or a graph.Link, Value: float or a
-    graph.Link)], those inside node groups too (Cycles' sync adds a group's nodes with the rest); a node with no name
-    writes nothing (Cycles finds no AOV of that name)."""
+def aov_outputs(material, warnings: list, kind: str = "material", kernels: str = "compiled") -> list:
+    """The material's (or with kind "world" the world's) AOV Output nodes as core Material.aovs (World.aovs) [(AOV
+    name, Color: (3,) or a graph.Link, Value: float or a graph.Link)], those inside node groups too (Cycles' sync adds a
+    group's nodes with the rest); a node with no name writes nothing (Cycles finds no AOV of that name)."""
     tree = node_tree(material)
     if tree is None:
         return []
-    reader = NodeReader(material, warnings)
+    reader = NodeReader(material, warnings, kind=kind, kernels=kernels)
     out: list = []
 
     def walk(nodes, path: tuple, depth: int = 0) -> None:

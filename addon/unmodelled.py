@@ -70,35 +70,11 @@ def view_layer_notes(view_layer) -> list:
                                                                        "use_denoising", False):
         notes.append("the Denoising Data passes are not written by Primer (it writes Denoising Albedo and Normal "
                      "with its own Denoise on)")
-    world = getattr(view_layer, "world_override", None) or getattr(scene, "world", None)
-    written = world_aovs(world, {aov.name for aov in getattr(view_layer, "aovs", ()) if getattr(aov, "is_valid", True)})
-    if written:
-        notes.append(f"the world's AOV Output nodes ({', '.join(written)}) are not rendered by Primer: Cycles writes "
-                     "them where camera paths escape to the world; Primer's AOVs stay 0 there (the materials' AOV "
-                     "Outputs are written)")
     if not getattr(view_layer, "use_pass_combined", True):
         notes.append("the Combined pass is off in the view layer; Primer writes it anyway")
     if not getattr(view_layer, "use_solid", True):
         notes.append("the view layer's Filter leaves Surfaces out (Cycles renders none); Primer renders them")
     return notes
-
-
-def world_aovs(world, names: set) -> list:
-    """The AOV names in `names` that AOV Output nodes of `world`'s node tree write (its groups' too), in order."""
-    found: list = []
-
-    def walk(tree, depth: int = 0) -> None:
-        for node in getattr(tree, "nodes", ()):
-            name = getattr(node, "aov_name", "")
-            if node.bl_idname == "ShaderNodeOutputAOV" and name in names and name not in found:
-                found.append(name)
-            elif node.bl_idname == "ShaderNodeGroup" and getattr(node, "node_tree", None) is not None and depth < 32:
-                walk(node.node_tree, depth + 1)
-
-    if world is not None:
-        from .materials import node_tree         # (the tree Cycles renders: None with Use Nodes off before 5.0)
-        walk(node_tree(world))
-    return found
 
 
 def holdout_objects(view_layer) -> set:

@@ -169,3 +169,104 @@ def test_a_surface_seen_only_in_a_mirror_writes_no_aov(kernels):
     result = render.render(scene, settings_of(kernels, (("v", "VALUE"),), width=8, height=8, max_bounces=2))
     assert np.all(result.aux["aov:v"] == 0.0)
     assert result.image[..., :3].mean() > 1.0
+
+
+GENERATED = Link(GraphNode("TEXCOORD", {}, {}), "Generated")
+
+
+def world_aov_scene(**world) -> Scene:
+    """A camera at the origin looking along (1, 1, 1) (40 degrees: every ray's direction has positive components),
+    its world's colour the ray's direction (its Generated coordinate) and its AOV Output nodes a Color AOV "d" of that
+    direction and a Value AOV "v" of 0.7 (lighting nothing), and a quad 2 wide (UVs 0..1, a Diffuse writing 0.25 into
+    "v") over a quarter of the view; `world` overrides the World's fields."""
+    from core.lights import World, world_graph
+    towards = np.ones(3) / math.sqrt(3.0)
+    scene = Scene(camera=Camera.look_at(np.zeros(3), towards, up=(0.0, 0.0, 1.0), fov=math.radians(40)))
+    scene.world = World(**{"lights": False, "seen": world_graph.compile_world(GENERATED, 1.0),
+                           "aovs": [("d", GENERATED, 0.0), ("v", (0.0, 0.0, 0.0), 0.7)], **world})
+    scene.materials.append(materials.Material(name="quad", nodes=[("DIFFUSE", (0.5, 0.5, 0.5), {})],
+                                              aovs=[("v", (0.0, 0.0, 0.0), 0.25)]))
+    mesh = primitives.plane(2.0)
+    mesh.attributes = plane_attributes(mesh)
+    side = np.cross(towards, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    matrix = np.eye(4)                   # (the quad faces the camera, 5 away, its corner on the view's centre)
+    matrix[:3, :3] = np.stack([side, np.cross(towards, side), -towards], axis=1)
+    matrix[:3, 3] = 5.0 * towards + side + np.cross(towards, side)
+    scene.add_mesh(mesh, matrix, materials=np.array([0]))
+    return scene
+
+
+WORLD_AOVS = (("d", "COLOR"), ("v", "VALUE"))
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_world_aov_of_the_ray_direction_is_the_environment_pass_where_camera_rays_escape(kernels):
+    """Cycles runs the world's AOV Output nodes where a camera path escapes before its opaque-enough surface: a Color
+    AOV of the direction (the world's Generated coordinate) is per pixel the mean over samples of the escaping rays'
+    directions, which is the Environment pass of a world whose colour is that direction; its alpha the share of
+    samples that escaped, 1 - the UV pass's coverage. A Value AOV of 0.7 in the world and 0.25 on the quad is
+    0.25 c + 0.7 (1 - c) in every pixel of coverage c (both exact)."""
+    result = render.render(world_aov_scene(), settings_of(kernels, WORLD_AOVS, passes=("uv", "environment")))
+    d, v, coverage = result.aux["aov:d"], result.aux["aov:v"][..., 0], result.aux["uv"][..., 2]
+    np.testing.assert_allclose(d[..., :3], result.aux["environment"], atol=1e-6)
+    np.testing.assert_allclose(d[..., 3], 1.0 - coverage, atol=1e-6)
+    np.testing.assert_allclose(v, 0.25 * coverage + 0.7 * (1.0 - coverage), atol=1e-6)
+    assert (coverage == 1.0).mean() > 0.1 and (coverage == 0.0).mean() > 0.3     # the quad, and the world around
+    escaped = d[coverage == 0.0]
+    assert np.all(escaped[:, :3] > 0.1) and np.ptp(escaped[:, 0]) > 0.2          # (the direction varies across)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_the_world_writes_aovs_behind_a_veil_but_not_past_the_alpha_threshold(kernels):
+    """A veil of alpha 0.4 filling the frame writes 1 into "v"; the world behind it 0.7 for the share of paths that go
+    on through it (0.6): 1 + 0.6 x 0.7 = 1.42 in the mean, each pixel 1 + 0.7 k / 16. Under a threshold of 0.3 the
+    veil is opaque enough and the world writes nothing: 1 exactly."""
+    scene = world_aov_scene()
+    scene.materials.append(materials.Material(name="veil", nodes=[("TRANSPARENT", (0.6, 0.6, 0.6), {}),
+                                                                  ("DIFFUSE", (0.4, 0.4, 0.4), {})],
+                                              aovs=[("v", (0.0, 0.0, 0.0), 1.0)]))
+    veil = scene.instances[0].matrix.copy()
+    veil[:3, 3] = 2.0 * np.ones(3) / math.sqrt(3.0)
+    veil[:3, :3] *= 5.0
+    scene.instances.clear()
+    scene.add_mesh(primitives.plane(1.0), veil, materials=np.array([1]), name="Veil")
+    settings = settings_of(kernels, (("v", "VALUE"),), width=16, height=16, samples=16)
+    np.testing.assert_allclose(render.render(scene, dataclasses.replace(settings, pass_alpha_threshold=0.3))
+                               .aux["aov:v"], 1.0, atol=1e-7)
+    value = render.render(scene, settings).aux["aov:v"][..., 0]
+    k = (value - 1.0) * 16 / 0.7
+    np.testing.assert_allclose(k, np.round(k), atol=1e-5)
+    assert abs(value.mean() - 1.42) < 0.05
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_the_world_writes_no_aov_unseen_by_the_camera_or_on_a_transparent_film_without_the_environment_pass(kernels):
+    """As Cycles: a world hidden from the camera (Ray Visibility > Camera) runs no background shader for camera rays,
+    and on a transparent film the background of camera rays is evaluated only for the Environment pass: the world
+    writes nothing then (the quad's 0.25 stays), and with the Environment pass asked for it writes as on an opaque
+    film."""
+    opaque = render.render(world_aov_scene(), settings_of(kernels, WORLD_AOVS, passes=("uv",))).aux
+    coverage = opaque["uv"][..., 2]
+    hidden = render.render(world_aov_scene(camera=False), settings_of(kernels, WORLD_AOVS, passes=("uv",))).aux
+    clear = render.render(world_aov_scene(), settings_of(kernels, WORLD_AOVS, passes=("uv",),
+                                                         transparent_background=True)).aux
+    for aux in (hidden, clear):
+        np.testing.assert_allclose(aux["aov:v"][..., 0], 0.25 * coverage, atol=1e-7)
+        assert np.all(aux["aov:d"] == 0.0)
+    kept = render.render(world_aov_scene(), settings_of(kernels, WORLD_AOVS, passes=("uv", "environment"),
+                                                        transparent_background=True)).aux
+    for name in ("aov:d", "aov:v"):
+        np.testing.assert_allclose(kept[name], opaque[name], atol=1e-7)
+
+
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_the_compiled_world_aovs_follow_the_reference(integrator):
+    """The C kernels write the world's AOVs as the Python reference does, from the same samples."""
+    settings = RenderSettings(width=20, height=16, samples=4, integrator=integrator, max_bounces=2,
+                              aovs=WORLD_AOVS, passes=("uv", "environment"))
+    compiled = render.render(world_aov_scene(), dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(world_aov_scene(), dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled"
+    for name in ("aov:d", "aov:v"):
+        np.testing.assert_allclose(compiled.aux[name], reference.aux[name], atol=1e-6, err_msg=name)

@@ -263,8 +263,9 @@ def test_shader_aovs_match_cycles_inside_objects(primer, tmp_path):
     """Shader AOVs (issue 33): every material of materials_principled gets an AOV Output of its UV into a Color AOV
     and, inside a node group, one of 0.5 into a Value AOV. Primer writes both passes under the AOVs' names with Cycles'
     channels; inside objects with a material the Value AOV is 0.5 in both, the Color AOV's alpha 1 and its colour the
-    UV's mean within the UV pass's tolerance (the samples sit at other places in each pixel); where no object is, both
-    are 0."""
+    UV's mean within the UV pass's tolerance (the samples sit at other places in each pixel). The world's AOV Output
+    nodes write where camera rays escape: 0.25 into the Value AOV and the ray's direction (its Generated coordinate)
+    into the Color AOV, alpha 1, in both (the direction within a pixel's spread)."""
     bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_scenes", "materials_principled.blend"))
     scene = bpy.context.scene
     layer = scene.view_layers[0]
@@ -287,6 +288,12 @@ def test_shader_aovs_match_cycles_inside_objects(primer, tmp_path):
         uv.aov_name = "AovUV"
         tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["UV"], uv.inputs["Color"])
         tree.nodes.new("ShaderNodeGroup").node_tree = group
+    world = scene.world.node_tree                  # (the world's AOV Outputs: where camera rays escape)
+    quarter = world.nodes.new("ShaderNodeOutputAOV")
+    quarter.aov_name, quarter.inputs["Value"].default_value = "AovHalf", 0.25
+    direction = world.nodes.new("ShaderNodeOutputAOV")
+    direction.aov_name = "AovUV"
+    world.links.new(world.nodes.new("ShaderNodeTexCoord").outputs["Generated"], direction.inputs["Color"])
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 96, 72, 100
     mine, cycles = render_passes_both(scene, tmp_path, "aov")
     for name in ("AovUV", "AovHalf"):
@@ -305,5 +312,11 @@ def test_shader_aovs_match_cycles_inside_objects(primer, tmp_path):
     assert np.median(error) < 0.002 and np.percentile(error, 99) < 0.02, (np.median(error), np.percentile(error, 99))
     np.testing.assert_allclose(mine["AovHalf"][1][objects], 0.5, atol=1e-6)
     np.testing.assert_allclose(cycles["AovHalf"][1][objects], 0.5, atol=1e-6)
+    assert empty.mean() > 0.05, empty.mean()
     for passes in (mine, cycles):
-        assert np.all(passes["AovUV"][1][empty] == 0.0) and np.all(passes["AovHalf"][1][empty] == 0.0)
+        np.testing.assert_allclose(passes["AovHalf"][1][empty], 0.25, atol=1e-6)
+    np.testing.assert_array_equal(a["A"][empty], 1.0)
+    np.testing.assert_array_equal(b["A"][empty], 1.0)
+    error = np.max([np.abs(a[c] - b[c])[empty] for c in "RGB"], axis=0)
+    print("world direction AOV", float(np.median(error)), float(error.max()))
+    assert error.max() < 0.005, error.max()

@@ -236,7 +236,8 @@ NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, 
 
 /* passes.along_ray for one ray of lane `lane`'s camera chain, with the chain's throughput there: from O along the
  * unit D to t (its hit where `hit`, else where it escapes): the lamps with extent the camera sees that it passes, the
- * world where it escapes, and where it escapes with the data passes not done, sample 0's back to 0. */
+ * world where it escapes, and where it escapes with the data passes not done, the world's shader AOVs and sample 0's
+ * back to 0. */
 INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t lane, int64_t sample,
                              const double *throughput, const double *O, const double *D, int hit, double t,
                              const VolumeStack *inside)
@@ -277,6 +278,11 @@ INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t l
             for (int c = 0; c < 3; c++) L[c] *= kept[c];
         }
         pass_add(lp, lane, PASS_ENVIRONMENT, L, throughput);
+    }
+    if (pt->world_aovs != NULL && pt->aov_base >= 0 && !lp->done[lane]) {
+        /* (the world's AOV Output nodes: Cycles' svm_node_aov_check on a camera path not yet done, unweighed) */
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
+        world_graph_aovs(pt->world_aovs, D, &camera, lp->values[lane] + pt->aov_base);
     }
     if (!lp->done[lane] && sample == 0) {
         pass_set(lp, lane, PASS_POSITION, NULL);

@@ -51,9 +51,12 @@ film/aov_passes.h): at each vertex of the chain until and with its opaque-enough
 PATH_RAY_SINGLE_PASS_DONE), every AOV Output node of the surface's material that names one of the view layer's AOVs
 adds to it, neither weighed by the throughput nor by the alpha: a COLOR AOV its Color and 1 into a fourth channel
 (its alpha: the share of samples that wrote it, 2 where two surfaces of a chain did), a VALUE AOV its Value. A
-sample that writes nothing adds 0 (the pixels no surface covers are 0). The graph's ops that feed only AOVs run only
-there (graph.py AOV_START). Cycles' world shader may write AOVs too (a camera ray that escapes); Primer does not
-(addon/unmodelled.py says so).
+sample that writes nothing adds 0. The graph's ops that feed only AOVs run only there (graph.py AOV_START). The
+world's AOV Output nodes write the same way where a camera chain escapes before its opaque-enough vertex (Cycles'
+integrator_eval_background_shader runs the world's nodes there with the same svm_node_aov_check): the world's
+program (world_graph.compile_aovs) at the ray's direction, added to what the chain's surfaces in front wrote, where
+the camera sees the world (Ray Visibility > Camera) and, on a transparent film, only where the Environment pass is
+asked for (Cycles evaluates the background of a transparent film's camera rays only for that pass).
 
 Each pass is the mean over all of a pixel's samples (the film's sums divided by its count), but for the
 sample-0 ones (FIRST_SAMPLE_ONLY), with the render's pixel filter (Primer's 1-pixel box; Cycles' default is
@@ -69,6 +72,7 @@ from .. import materials as materials_
 from .. import volumes
 from ..camera import camera as camera_
 from ..geometry.surface import hit_attributes, hit_owners
+from ..lights import world_graph
 from ..materials.closures import each_kind
 from ..materials.lambert import Lambert
 from ..native import schema
@@ -239,11 +243,13 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
     ("vector_still", I32, "VectorTables.still: 1 writes 0 motion"),
     ("vector_rows", I64, "the rows of vector_before and vector_after"),
     ("aov_base", I32, "the AOVs' first channel (PassLayout.aov_base), -1: none"),
+    ("world_aovs", ptr("WorldGraph"), "the world's AOV Output nodes (world_graph.compile_aovs), NULL: none written"),
 ])
 
 
 def pass_tables(ctx, layout: PassLayout):
-    """The PassTables record of a render's `layout` (the arrays it points at kept alive by the record)."""
+    """The PassTables record of a render's `layout` (the arrays it points at kept alive by the record; the world's
+    AOV program, ctx.extra["world_aovs"], pointed at where the layout has AOVs)."""
     scene, geometry = ctx.scene, ctx.geometry
     offset = np.full(len(PASS_CHANNELS), -1, np.int32)
     for name in layout.names:
@@ -253,7 +259,8 @@ def pass_tables(ctx, layout: PassLayout):
     kinds[:len(layout.kinds)] = layout.kinds
     world = ctx.extra.get("world_light")
     uv = geometry.attribute_layout.get(UV_ATTRIBUTE)
-    return PassTables(
+    world_aovs = ctx.extra.get("world_aovs")
+    tables = PassTables(
         offset=offset, channels=layout.channels,
         object_index=object_indices(scene), material_index=material_indices(scene),
         object_ids=ids["object"].astype(np.float64), asset_ids=ids["asset"].astype(np.float64),
@@ -266,6 +273,9 @@ def pass_tables(ctx, layout: PassLayout):
         uv_offset=-1 if uv is None else int(uv[0]), world_camera=world is not None and bool(world.camera),
         alpha_threshold=float(ctx.settings.pass_alpha_threshold), aov_base=layout.aov_base if layout.aovs else -1,
         **vector_fields(ctx.extra.get("vector_tables")))
+    if world_aovs is not None and layout.aovs:
+        tables.world_aovs = world_aovs.record()
+    return tables
 
 
 def vector_fields(tables) -> dict:
@@ -414,8 +424,8 @@ def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O:
     (k, 3) the chains' there, rays O, D (k, 3) that end at t (k,) (their hit where hit (k,) bool, else where they
     escape): the lamps with extent they pass and what the media along them emit (emission: a medium the camera
     sees is Cycles' Emission, film_write_volume_emission on a path with no pass yet), the world where they escape
-    (environment), and where they escape with the data passes not done, sample 0's position, ids and depth back to
-    0. stretch: the media the rays cross (core/volumes Stretch, k rows), or None: the lamps and the world keep what
+    (environment), and where they escape with the data passes not done, the world's shader AOVs (world_aovs) and
+    sample 0's position, ids and depth back to 0. stretch: the media the rays cross (core/volumes Stretch, k rows), or None: the lamps and the world keep what
     they let through over their distance, as in Combined."""
     if len(owner) == 0:
         return
@@ -431,6 +441,12 @@ def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O:
         if stretch is not None:
             seen = seen * stretch.rows(missed).transmittance(np.full(len(missed), np.inf))
         dp.add("environment", owner[missed], throughput[missed] * seen)
+    program = ctx.extra.get("world_aovs")
+    if program is not None and dp.layout.aovs and len(missed):
+        # (Cycles' svm_node_aov_check: a camera path before its opaque-enough vertex; not weighed by the throughput)
+        open_ = missed[~dp.done[owner[missed]]]
+        dp.values[owner[open_], dp.layout.aov_base:dp.layout.aov_base + dp.layout.aov_channels] += \
+            world_graph.aovs_along(program, D[open_], dp.layout.aov_channels)
     gone = owner[missed][~dp.done[owner[missed]] & dp.first[owner[missed]]]
     for name in ("position", "object_index", "material_index", "z_depth"):
         dp.set(name, gone, 0.0)

@@ -54,6 +54,9 @@ class World:
     seen:     the world's node graph compiled (core/lights/world_graph.py WorldProgram),
               which every ray that escapes (the camera's, a BSDF's, a volume's phase-sampled) evaluates per ray with
               its path, or None: they find `radiance`; light samples always read `radiance` (the bake)
+    aovs:     its AOV Output nodes, [(AOV name, Color: (3,) or a graph.Link, Value: float or a graph.Link)] (as
+              Material.aovs): what camera chains that escape write into the render's shader AOVs of that name
+              (core/lights/world_graph.py compile_aovs, core/integrators/passes.py along_ray)
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -69,6 +72,7 @@ class World:
     suns: list = field(default_factory=list)
     volume: list = field(default_factory=list)
     seen: Optional[object] = None
+    aovs: list = field(default_factory=list)
 
     @property
     def varying(self) -> bool:

@@ -20,6 +20,7 @@ INLINE void world_point_at(const WorldGraph *g, const double *D, const LightPath
     sp->info = NO_INFO;                                 /* (no object: its Object Info reads 0) */
     sp->info_width = OBJECT_INFO_WIDTH;
     sp->rays = NULL;                                    /* (world shaders trace nothing) */
+    sp->aov = NULL;                                     /* (no shader AOVs written: world_graph_aovs sets them) */
     sp->random = 0.0;
     sp->side = 1.0;
     sp->path = *path;
@@ -35,6 +36,28 @@ INLINE void world_graph_radiance(const WorldGraph *g, const double *D, const Lig
     world_point_at(g, D, path, &sp);
     run_program(g->graph, 0, &sp, NULL, reg);
     for (int c = 0; c < 3; c++) out[c] = reg[g->color + c] * reg[g->strength];
+}
+
+/* world_graph.aovs_along at one direction: what the world's AOV Output nodes (a compile_aovs program) write for a
+ * camera chain's ray along the unit D that escapes, with its path (EMISSION added, as Cycles evaluates a background),
+ * added into the lane's shader AOVs `into` (a COLOR AOV its Color and 1 into its alpha, a VALUE AOV its Value). */
+INLINE void world_graph_aovs(const WorldGraph *g, const double *D, const LightPath *path, double *into)
+{
+    double reg[MAX_REGISTERS];
+    ShadingPoint sp;
+    LightPath emission = *path;
+    emission.flags |= PATH_EMISSION;
+    world_point_at(g, D, &emission, &sp);
+    sp.aov = into;                                      /* (the ops after AOV_START run) */
+    run_program(g->graph, 0, &sp, NULL, reg);
+    const double *info = g->graph->programs;            /* (its one program) */
+    const double *outputs = g->graph->outputs + 5 * (int64_t)info[5];
+    for (int64_t o = 0; o < (int64_t)info[6]; o++) {
+        const double *out = outputs + 5 * o;
+        if ((int)out[0] != OUT_AOV) continue;
+        for (int j = 0; j < (int)out[3]; j++) into[(int64_t)out[1] + j] += reg[(int64_t)out[4] + j];
+        if ((int)out[3] == 3) into[(int64_t)out[1] + 3] += 1.0;
+    }
 }
 
 /* World.radiance_seen: what a ray along the unit D that escapes finds, with its path (NULL: none known, the bake): the

@@ -129,6 +129,40 @@ def compile_world(color, strength) -> WorldProgram:
     return WorldProgram(program, registers, textures, layout, dict(compiler.sky_starts))
 
 
+def compile_aovs(aovs, slots: dict):
+    """The world's AOV Output nodes `aovs` (World.aovs: (name, Color, Value) each) that name one of the render's
+    shader AOVs `slots` (core/integrators/passes.py aov_slots: name -> (first channel, 4 COLOR or 1 VALUE)) compiled
+    over the world's shading point, after an AOV_START op (OUT_AOV rows, as a material's: graph.Compiler.compile):
+    a WorldProgram whose colour and strength are 0, or None where no node names one (Cycles' OutputAOVNode with
+    offset -1 is not compiled)."""
+    wanted = [(slots[name][0], slots[name][1], color if slots[name][1] == 4 else value)
+              for name, color, value in aovs if name in slots]
+    if not wanted:
+        return None
+    layout = graph_.layout_of({"generated", "object"})
+    nodes = [(None, 1.0, {"source": source}) for _, _, source in wanted]
+    images = graph_.images_of(nodes)
+    index = {id(image): k for k, image in enumerate(images) if image is not None}
+    compiler = graph_.Compiler(layout, lambda image: index.get(id(image), -1), material="the world")
+    registers = (compiler.value(np.zeros(3), 3, 0.0), compiler.value(0.0, 1, 0.0))
+    program = compiler.compile([], aovs=wanted)
+    textures = textures_.TextureSet.of([image for image in images if image is not None])
+    return WorldProgram(program, tuple(register_number(compiler, r) for r in registers), textures, layout,
+                        dict(compiler.sky_starts))
+
+
+def aovs_along(world: WorldProgram, D: np.ndarray, channels: int, paths=None) -> np.ndarray:
+    """What the world's AOV Output nodes (compile_aovs) write (n, channels) float64 for rays along unit D (n, 3) that
+    escape, each evaluated with its graph.LightPaths `paths` (None: camera rays), EMISSION added as Cycles evaluates
+    a background (integrator_eval_background_shader), by the numpy reference (graph.aov_values: a COLOR AOV its
+    Color and 1 in its alpha channel, a VALUE AOV its Value)."""
+    paths = graph_.light_paths(len(D)) if paths is None else paths
+    reg = graph_.run(world.program, world_point(D, world.layout, paths._replace(flags=paths.flags | graph_.PATH_EMISSION)),
+                     world.textures)
+    values = graph_.aov_values(world.program, reg, channels)
+    return np.zeros((len(D), channels)) if values is None else values
+
+
 def radiance_along(world: WorldProgram, D: np.ndarray, program=None, paths=None) -> np.ndarray:
     """The world's radiance colour x strength (n, 3) float64 along directions D (n, 3) (`program`: the world's
     program with other float tables, else its own; paths: the rays' graph.LightPaths, None: a ray that lights the

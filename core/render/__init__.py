@@ -186,6 +186,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # are divided by; the Cryptomatte ids hashed once.
     ctx.extra["pass_layout"] = passes_.PassLayout(lightpasses.first_hit_passes(settings.passes),
                                                   settings.cryptomatte_depth, aovs)
+    ctx.extra["world_aovs"] = world_aovs(world, ctx.extra["pass_layout"], settings)
     if ctx.extra["pass_layout"].mattes:
         ctx.extra["crypto_ids"] = cryptomatte.id_tables(scene)
     if ctx.extra["pass_layout"].has("vector"):         # (the screen motion of each instance and the camera)
@@ -251,6 +252,18 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # Shadow catchers (core/integrators/catcher.py): the catcher-only scene their caught samples are followed in.
     ctx.extra["catcher"] = catcher_.catcher_context(ctx, warnings)
     return ctx
+
+
+def world_aovs(world, layout, settings: RenderSettings):
+    """The world's AOV Output nodes compiled for the render's shader AOVs (lights_.world_graph.compile_aovs), or None
+    where escaping camera rays write none, as in Cycles: no AOV asked for or named, a world the camera does not see
+    (its background shader is skipped), or a transparent film without the Environment pass (Cycles evaluates a
+    transparent film's background for that pass alone: integrate_background's eval_background)."""
+    if world is None or not world.aovs or not layout.aovs or not world.camera:
+        return None
+    if settings.transparent_background and not layout.has("environment"):
+        return None
+    return lights_.world_graph.compile_aovs(world.aovs, layout.aovs)
 
 
 def has_node(shader, names: tuple) -> bool:
