@@ -234,8 +234,11 @@ def sample_vector_frames(engine, depsgraph, camera_object, camera, export_camera
     frames before and after the one rendered (Scene.vector_cameras; `camera`, the frame's exported one, where its
     Motion Blur is off), read by moving the scene there with
     engine.frame_set and back; each exported instance (core Scene.instances, placement_key by index in
-    `instance_keys`) whose transform differs there given Instance.vector_motion. Objects that deform between the
-    frames, and a panoramic camera, are noted in `warnings` (Primer's pass leaves their motion out)."""
+    `instance_keys`) whose transform differs there given Instance.vector_motion, and each whose mesh's vertices
+    (read where it may deform: Deformation on, modifiers or shape keys, _object_state) differ between the frames
+    given them as Instance.vector_deformation (core/integrators/passes.py with_vector_deformation maps them, a frame
+    of another vertex count taking the mesh's own, as Cycles). A panoramic camera is noted in `warnings` (Primer's
+    pass leaves its motion out)."""
     scene = depsgraph.scene
     frame, subframe = scene.frame_current, scene.frame_subframe
     cameras, states = [], []
@@ -248,7 +251,6 @@ def sample_vector_frames(engine, depsgraph, camera_object, camera, export_camera
             states.append(_object_state(depsgraph))
     finally:
         engine.frame_set(frame, subframe)
-    deformed = set()
     for index, key in (instance_keys or {}).items():
         if index >= len(instances) or not all(key in state for state in states):
             continue
@@ -257,12 +259,9 @@ def sample_vector_frames(engine, depsgraph, camera_object, camera, export_camera
                                                                     for m in matrices):
             instances[index].vector_motion = matrices
         shapes = [state[key][1] for state in states]
-        if shapes[0] is not None and shapes[1] is not None and (shapes[0].shape != shapes[1].shape
-                                                                or not np.array_equal(shapes[0], shapes[1])):
-            deformed.add(key[0])
-    if deformed:
-        warnings.append(f"the Vector pass: {named(deformed)} deform{'s' if len(deformed) == 1 else ''} between "
-                        "frames; Primer's pass carries only the objects' transforms and the camera's motion")
+        if any(shape is not None for shape in shapes):      # (the vertices then: the core compares and maps them)
+            instances[index].vector_deformation = tuple(None if shape is None else shape.reshape(-1, 3).astype(np.float64)
+                                                        for shape in shapes)
     if any(camera.type == "PANO" for camera in cameras):
         warnings.append("the Vector pass of a panoramic camera is not mapped by Primer (it stays 0)")
     return tuple(cameras)

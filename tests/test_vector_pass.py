@@ -91,3 +91,80 @@ def test_with_motion_blur_the_vector_pass_is_zero_as_cycles_writes_it(kernels):
     floor.vector_motion = (shifted(floor.matrix, (-0.5, 0.0, 0.0)), shifted(floor.matrix, (0.5, 0.0, 0.0)))
     vector = render.render(scene, dataclasses.replace(settings, kernels=kernels)).aux["vector"]
     assert vector.shape == (12, 16, 4) and not vector.any()
+
+
+def turned(scale: float, offset) -> np.ndarray:
+    """An object-to-world transform: a quarter turn about z, scaled by `scale`, moved by offset (3,)."""
+    out = np.eye(4)
+    out[:3, :3] = scale * np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    out[:3, 3] = offset
+    return out
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_mesh_whose_vertices_shift_between_frames_moves_by_that_shift_carried_by_its_transform(kernels):
+    """Cycles' deformation motion: a floor whose vertices (object space) stand e = (0.1, 0.05, 0) back a frame earlier
+    and as far on a frame later (Instance.vector_deformation), under a transform turning it a quarter about z and
+    scaling it by 2, moves in the world by d = M e = (-0.1, 0.2, 0): with the orthographic camera (8 pixels a unit)
+    also moving 0.05 along +x a frame, the pass is 8 ((-d) - (-c)) on both sides of the frame, (1.2, -1.6, 1.2, -1.6),
+    in every pixel (a shift interpolates to itself; within 5e-5 pixel: the positions are kept as float32
+    attributes)."""
+    scene, settings = floor_under(ortho_camera())
+    floor = scene.instances[0]
+    floor.matrix = turned(2.0, (0.0, 0.0, 0.0))
+    scene.meshes[0] = primitives.plane(10.0)
+    e = np.array([0.1, 0.05, 0.0])
+    vertices = scene.meshes[0].vertices
+    floor.vector_deformation = (vertices - e, vertices + e)
+    camera = scene.camera
+    c = np.array([0.05, 0.0, 0.0])
+    scene.vector_cameras = (dataclasses.replace(camera, matrix_world=shifted(camera.matrix_world, -c)),
+                            dataclasses.replace(camera, matrix_world=shifted(camera.matrix_world, c)))
+    vector = render.render(scene, dataclasses.replace(settings, kernels=kernels)).aux["vector"]
+    d = floor.matrix[:3, :3] @ e
+    expected = 8.0 * np.r_[(-d)[:2] - (-c)[:2], (-d)[:2] - (-c)[:2]]
+    np.testing.assert_allclose(expected, [1.2, -1.6, 1.2, -1.6], atol=1e-12)
+    np.testing.assert_allclose(vector, np.broadcast_to(expected, vector.shape), atol=5e-5)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_mesh_growing_between_frames_moves_each_hit_by_its_own_vertices_interpolated(kernels):
+    """A floor whose vertices stand at 0.9 of where they are a frame earlier and 1.2 a frame later (a shape key
+    growing it about its origin, placed at (0.3, -0.2)): the hit at p (object space) was at 0.9 p and will be at
+    1.2 p, so with one sample a pixel (the Position pass its hit) the pass is 8 (-0.1 p, -0.2 p) in x and y (the
+    barycentric interpolation of the corners is exact for a linear motion); where the frame after's vertices are of
+    another count (the topology changed) that side takes the transform's motion alone (0 here), as Cycles copies the
+    frame's vertices there."""
+    scene, settings = floor_under(ortho_camera())
+    floor = scene.instances[0]
+    floor.matrix = shifted(np.eye(4), (0.3, -0.2, 0.0))
+    scene.meshes[0] = primitives.plane(10.0)
+    vertices = scene.meshes[0].vertices
+    settings = dataclasses.replace(settings, samples=1, passes=("vector", "position"), kernels=kernels)
+    for after, grows in ((1.2 * vertices, True), (np.zeros((5, 3)), False)):
+        floor.vector_deformation = (0.9 * vertices, after)
+        aux = render.render(scene, settings).aux
+        p = aux["position"][..., :2] - [0.3, -0.2]
+        np.testing.assert_allclose(aux["vector"][..., :2], 8.0 * (-0.1 * p), atol=5e-5)
+        np.testing.assert_allclose(aux["vector"][..., 2:], 8.0 * (-0.2 * p) if grows else 0.0, atol=5e-5)
+        assert np.ptp(p[..., 0]) > 1.5
+
+
+def test_a_deforming_mesh_gets_its_vertices_then_as_attributes_and_a_rigid_one_none():
+    """with_vector_deformation: the deforming mesh carries its vertices at both frames per corner (object space), a
+    frame whose vertices did not change or changed count keeps the mesh's own, a mesh that does not deform gets
+    nothing, and the scene given is left as it was."""
+    from core.integrators import passes
+    scene = Scene(camera=ortho_camera())
+    scene.add_mesh(primitives.plane(2.0))
+    scene.add_mesh(primitives.plane(2.0))
+    vertices = scene.meshes[0].vertices
+    scene.instances[0].vector_deformation = (vertices + 1.0, np.zeros((3, 3)))
+    out = passes.with_vector_deformation(scene)
+    assert out is not scene and "motion:before" not in (scene.meshes[0].attributes or {})
+    attributes = out.meshes[0].attributes
+    np.testing.assert_array_equal(attributes["motion:before"], (vertices + 1.0)[scene.meshes[0].triangles])
+    np.testing.assert_array_equal(attributes["motion:after"], vertices[scene.meshes[0].triangles])
+    assert not out.meshes[1].attributes
+    scene.instances[0].vector_deformation = (vertices.copy(), None)
+    assert passes.with_vector_deformation(scene) is scene

@@ -108,20 +108,47 @@ INLINE void uv_at(const GeometryTables *g, int64_t geometry, int64_t prim, doubl
                  + v * (double)corner[2 * width + offset + c];
 }
 
-/* passes.vector_at for one hit of instance `object` at the world point P: (before - now, now - after) on the raster
- * and its weight 1, into out (5); 0 motion where still. */
-INLINE void vector_at(const PassTables *pt, int64_t object, const double *P, double *out)
+/* surface.hit_attributes for three floats from `offset` of the hit on `prim` of geometry `geometry` (0: the copied
+ * triangles, m: instanced mesh m - 1) at barycentrics u, v, into out (3). */
+INLINE void attribute3_at(const GeometryTables *g, int64_t geometry, int64_t prim, double u, double v, int offset,
+                          double *out)
+{
+    int64_t row = 0;
+    if (geometry <= 0) row = g->attribute_row != NULL ? (int64_t)g->attribute_row[prim] : 0;
+    else if (g->meshes[geometry - 1].attribute_row != NULL) row = (int64_t)g->meshes[geometry - 1].attribute_row[prim];
+    int64_t width = (int64_t)g->attribute_width;
+    const float *corner = g->attributes + 3 * width * row;
+    double w = 1.0 - u - v;
+    for (int c = 0; c < 3; c++)
+        out[c] = (w * (double)corner[offset + c] + u * (double)corner[width + offset + c])
+                 + v * (double)corner[2 * width + offset + c];
+}
+
+/* passes.vector_at for one hit of instance `object` at the world point P (on `prim` of geometry `geometry` at
+ * barycentrics u, v): (before - now, now - after) on the raster and its weight 1, into out (5); 0 motion where
+ * still. A deforming instance's point then is its mesh's motion attribute at the hit carried by its object's
+ * transform then (Cycles' vertex motion), any other's P carried by its transform's change. */
+INLINE void vector_at(const PassTables *pt, const GeometryTables *g, int64_t geometry, int64_t prim, double u, double v,
+                      int64_t object, const double *P, double *out)
 {
     for (int c = 0; c < 4; c++) out[c] = 0.0;
     out[4] = 1.0;
     if (pt->vector_still != 0 || pt->vector_before == NULL) return;
     int64_t row = object < 0 ? 0 : (object >= pt->vector_rows ? pt->vector_rows - 1 : object);
+    int deformed = pt->vector_deformed != NULL && pt->vector_deformed[row] != 0 && g->attributes != NULL;
     double raster[3][2];
     for (int k = 0; k < 3; k++) {
         const double *move = k == 0 ? pt->vector_before + 12 * row : (k == 2 ? pt->vector_after + 12 * row : NULL);
-        double Q[3], h[4];
+        double Q[3], h[4], local[3];
+        const double *from = P;
+        if (move != NULL && deformed) {
+            attribute3_at(g, geometry, prim, u, v, k == 0 ? (int)pt->vector_offset_before : (int)pt->vector_offset_after,
+                          local);
+            move = pt->vector_objects + 12 * (2 * row + k / 2);
+            from = local;
+        }
         for (int i = 0; i < 3; i++)
-            Q[i] = move == NULL ? P[i] : ((move[4 * i] * P[0] + move[4 * i + 1] * P[1]) + move[4 * i + 2] * P[2])
+            Q[i] = move == NULL ? P[i] : ((move[4 * i] * from[0] + move[4 * i + 1] * from[1]) + move[4 * i + 2] * from[2])
                                          + move[4 * i + 3];
         const double *R = pt->vector_raster + 16 * k;
         for (int i = 0; i < 4; i++) h[i] = ((R[4 * i] * Q[0] + R[4 * i + 1] * Q[1]) + R[4 * i + 2] * Q[2]) + R[4 * i + 3];
@@ -199,7 +226,7 @@ NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, 
         if (pt->offset[PASS_VECTOR] >= 0) {
             double P[3], motion[5];
             for (int c = 0; c < 3; c++) P[c] = s->I[c] + pt->origin[c];
-            vector_at(pt, object, P, motion);
+            vector_at(pt, g, H->geometry[h], H->prim[h], H->bary[2 * h], H->bary[2 * h + 1], object, P, motion);
             pass_add(lp, lane, PASS_VECTOR, motion, NULL);
         }
         lp->done[lane] = 1;

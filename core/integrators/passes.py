@@ -21,7 +21,9 @@ throughput there (the product of the transparent bounces' weights).
     vector          the hit's motion on screen (Cycles' Vector pass, primitive_motion_vector): where it was at the
                     frame before minus where it is, and where it is minus where it will be at the frame after, each
                     in raster pixels (x right, y up), the hit carried by its object's transform (Instance.
-                    vector_motion) and seen by the camera then (Scene.vector_cameras); the mean over the samples that
+                    vector_motion), or a deforming mesh's hit its own point on the mesh then (its vertices then,
+                    Instance.vector_deformation, interpolated: with_vector_deformation), and seen by the camera then
+                    (Scene.vector_cameras); the mean over the samples that
                     found a surface (a fifth channel counts them); 0 with motion blur on, as Cycles writes it
   A chain that escapes before its opaque vertex leaves the sample-0 passes 0 (Cycles' background data passes).
 - At every vertex of the chain:
@@ -242,6 +244,10 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
     ("vector_raster", F64, 48, "(3, 4, 4) VectorTables.raster: before, at and after the frame"),
     ("vector_still", I32, "VectorTables.still: 1 writes 0 motion"),
     ("vector_rows", I64, "the rows of vector_before and vector_after"),
+    ("vector_deformed", ptr(I32), "(n,) VectorTables.deformed (NULL: no mesh deforms)"),
+    ("vector_objects", ptr(F64), "(n, 2, 3, 4) VectorTables.objects"),
+    ("vector_offset_before", I32, "VectorTables.offsets[0]: the motion:before attribute's first float"),
+    ("vector_offset_after", I32, "VectorTables.offsets[1]"),
     ("aov_base", I32, "the AOVs' first channel (PassLayout.aov_base), -1: none"),
     ("world_aovs", ptr("WorldGraph"), "the world's AOV Output nodes (world_graph.compile_aovs), NULL: none written"),
 ])
@@ -282,10 +288,15 @@ def vector_fields(tables) -> dict:
     """PassTables' Vector pass fields from VectorTables (or None: not asked for)."""
     if tables is None:
         return dict(vector_still=1)
-    return dict(vector_before=np.ascontiguousarray(tables.before, np.float64),
-                vector_after=np.ascontiguousarray(tables.after, np.float64),
-                vector_raster=np.ascontiguousarray(tables.raster, np.float64).ravel(), vector_still=tables.still,
-                vector_rows=len(tables.before))
+    fields = dict(vector_before=np.ascontiguousarray(tables.before, np.float64),
+                  vector_after=np.ascontiguousarray(tables.after, np.float64),
+                  vector_raster=np.ascontiguousarray(tables.raster, np.float64).ravel(), vector_still=tables.still,
+                  vector_rows=len(tables.before), vector_offset_before=int(tables.offsets[0]),
+                  vector_offset_after=int(tables.offsets[1]))
+    if np.any(tables.deformed):
+        fields.update(vector_deformed=np.ascontiguousarray(tables.deformed, np.int32),
+                      vector_objects=np.ascontiguousarray(tables.objects, np.float64))
+    return fields
 
 
 def mist_inv_depth(settings) -> float:
@@ -394,8 +405,13 @@ def at_vertex(ctx, dp: DataPasses, rows: np.ndarray, owner: np.ndarray, vertex: 
         if dp.layout.has("uv"):
             dp.add("uv", at[opaque], uv_at(geometry, surface, rows[opaque]))
         if dp.layout.has("vector"):
-            dp.add("vector", at[opaque], vector_at(ctx.extra["vector_tables"], I[opaque] + geometry.origin,
-                                                   instance[opaque]))
+            tables = ctx.extra["vector_tables"]
+            attributes = None
+            if np.any(tables.deformed):                 # (a deforming mesh's vertices then: its attributes at the hit)
+                attribute_rows, _, _ = hit_owners(geometry, prim[opaque])
+                attributes, _, _ = hit_attributes(geometry, attribute_rows, surface.u[rows[opaque]],
+                                                  surface.v[rows[opaque]])
+            dp.add("vector", at[opaque], vector_at(tables, I[opaque] + geometry.origin, instance[opaque], attributes))
         dp.done[at[opaque]] = True
     # 3. Cryptomatte: this surface's share of the pixel, for its object, material and asset.
     if dp.layout.mattes:
@@ -456,18 +472,60 @@ class VectorTables(NamedTuple):
     """What the Vector pass projects with: before, after (n, 3, 4) float64 each instance's transform from where it
     is to where it was at the frame before and will be at the frame after (M_before M^-1, the identity where it
     stands still); raster (3, 4, 4) float64 the camera's world-to-raster transform (camera.world_to_raster) at the
-    frame before, at the frame and at the frame after; still: 1 with motion blur on (Cycles writes 0 then)."""
+    frame before, at the frame and at the frame after; still: 1 with motion blur on (Cycles writes 0 then).
+    Deformation (Cycles' motion vertex positions): deformed (n,) int32 1 where the instance's mesh carries its
+    vertices at the neighbouring frames as the attributes VECTOR_ATTRIBUTES (with_vector_deformation), whose
+    first floats sit at offsets (2,) int64 (before, after; -1: the geometry has none); objects (n, 2, 3, 4) float64
+    each instance's object-to-world transform at the frame before and after (M_before, M_after: M where still),
+    which carries those object-space positions into the world."""
 
     before: np.ndarray
     after: np.ndarray
     raster: np.ndarray
     still: int
+    deformed: np.ndarray = np.zeros(0, np.int32)
+    objects: np.ndarray = np.zeros((0, 2, 3, 4))
+    offsets: tuple = (-1, -1)
 
 
-def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool) -> VectorTables:
+# The mesh attributes (object-space positions per corner) of a deforming mesh's vertices at the frames before and
+# after the one rendered, for the Vector pass (Cycles' ATTR_STD_MOTION_VERTEX_POSITION).
+VECTOR_ATTRIBUTES = ("motion:before", "motion:after")
+
+
+def with_vector_deformation(scene):
+    """The scene with each mesh that deforms between the neighbouring frames (Instance.vector_deformation) carrying
+    its vertices there as the per-corner attributes VECTOR_ATTRIBUTES (object space, (t, 3, 3)), as Cycles exports
+    its motion vertex positions; `scene` itself where none deforms. A frame whose vertices are missing, of another
+    count (the topology changed) or not finite takes the mesh's own vertices, as Cycles' sync_mesh_motion copies the
+    frame's there ("Topology differs, discarding motion blur"): that frame's motion is the transform's alone. The
+    meshes are replaced, not changed (an exported scene may be cached)."""
+    import dataclasses
+    meshes = list(scene.meshes)
+    changed = False
+    for instance in scene.instances:
+        if not instance.vector_deformation or instance.mesh >= len(meshes):
+            continue
+        mesh = meshes[instance.mesh]
+        own = np.asarray(mesh.vertices, np.float64)
+        frames = [own if p is None or np.shape(p) != own.shape or not np.isfinite(p).all() else np.asarray(p, np.float64)
+                  for p in instance.vector_deformation]
+        if all(np.array_equal(p, own) for p in frames) or VECTOR_ATTRIBUTES[0] in (mesh.attributes or {}):
+            continue
+        triangles = np.asarray(mesh.triangles, np.int64)
+        attributes = dict(mesh.attributes or {})
+        for name, positions in zip(VECTOR_ATTRIBUTES, frames):
+            attributes[name] = positions[triangles]
+        meshes[instance.mesh] = dataclasses.replace(mesh, attributes=attributes)
+        changed = True
+    return dataclasses.replace(scene, meshes=meshes) if changed else scene
+
+
+def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, layout=None) -> VectorTables:
     """The VectorTables of a scene rendered width x height with `pixel_aspect`; blurred: motion blur is on (the pass
-    is 0, as Cycles writes it). (A panoramic camera's pass stays 0: Primer does not map its motion,
-    addon/motion.py sample_vector_frames says so.)"""
+    is 0, as Cycles writes it); layout: the geometry's attribute layout (WorldGeometry.attribute_layout), where
+    the deforming meshes' VECTOR_ATTRIBUTES sit (None: no deformation mapped). (A panoramic camera's pass stays 0:
+    Primer does not map its motion, addon/motion.py sample_vector_frames says so.)"""
     cameras = scene.vector_cameras or (scene.camera, scene.camera)
     if blurred or any(camera.type == "PANO" for camera in (scene.camera, *cameras)):
         return VectorTables(np.zeros((0, 3, 4)), np.zeros((0, 3, 4)), np.zeros((3, 4, 4)), 1)
@@ -480,20 +538,42 @@ def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool) -
             inverse = np.linalg.inv(np.asarray(instance.matrix, np.float64))
             for k in range(2):
                 moves[k][i] = (np.asarray(instance.vector_motion[k], np.float64) @ inverse)[:3]
-    return VectorTables(moves[0], moves[1], raster, 0)
+    layout = layout or {}
+    offsets = tuple(int(layout[name][0]) if name in layout else -1 for name in VECTOR_ATTRIBUTES)
+    deformed = np.zeros(n, np.int32)
+    objects = np.zeros((n, 2, 3, 4))
+    for i, instance in enumerate(scene.instances):
+        mesh = scene.meshes[instance.mesh] if instance.mesh < len(scene.meshes) else None
+        attributes = getattr(mesh, "attributes", None) or {}
+        deformed[i] = min(offsets) >= 0 and all(name in attributes for name in VECTOR_ATTRIBUTES)
+        for k in range(2):
+            objects[i, k] = np.asarray(instance.vector_motion[k] if instance.vector_motion else instance.matrix,
+                                       np.float64)[:3]
+    return VectorTables(moves[0], moves[1], raster, 0, deformed, objects, offsets)
 
 
-def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray) -> np.ndarray:
+def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray, attributes=None) -> np.ndarray:
     """The Vector pass's value at world points P (k, 3) float64 of the instances `instance` (k,) int64: (before -
-    now, now - after) on the raster, then 1 (its weight): (k, 5) float64 (0 but the weight where still)."""
+    now, now - after) on the raster, then 1 (its weight): (k, 5) float64 (0 but the weight where still). Where it
+    was and will be: a deforming instance's (tables.deformed) the hit's own point on its mesh then, the
+    VECTOR_ATTRIBUTES interpolated at the hit (attributes: (k, A) float64 the hits' mesh attributes,
+    surface.hit_attributes) carried by its object's transform then (Cycles' primitive_motion_vector with vertex
+    motion); any other's P carried by its transform's change (M_before M^-1)."""
     out = np.zeros((len(P), 5))
     out[:, 4] = 1.0
     if tables.still or len(P) == 0:
         return out
     row = np.clip(instance, 0, max(len(tables.before) - 1, 0))
+    deformed = (np.flatnonzero(tables.deformed[row] != 0) if attributes is not None and len(tables.deformed)
+                else np.zeros(0, np.int64))
     at = []
     for k, move in ((0, tables.before), (1, None), (2, tables.after)):
         Q = P if move is None else np.einsum("kij,kj->ki", move[row], np.c_[P, np.ones(len(P))])
+        if move is not None and len(deformed):
+            start = tables.offsets[k // 2]
+            local = np.asarray(attributes, np.float64)[deformed, start:start + 3]
+            Q = Q.copy()
+            Q[deformed] = np.einsum("kij,kj->ki", tables.objects[row[deformed], k // 2], np.c_[local, np.ones(len(local))])
         h = np.c_[Q, np.ones(len(P))] @ tables.raster[k].T
         at.append(h[:, :2] / h[:, 3:4])
     out[:, 0:2] = at[0] - at[1]

@@ -477,7 +477,7 @@ COMPUTED_COORDINATES = (INCOMING_OBJECT,)
 ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "attr": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
                     "curve": 1, "curve_tangent": 3, "curve_normal": 3, "triangle_dpdu": 3, "triangle_dpdv": 3,
                     "point_centre": 4, "point_radius": 3, "point_random": 1,
-                    "undisplaced_position": 3, "undisplaced_normal": 3}
+                    "undisplaced_position": 3, "undisplaced_normal": 3, "motion": 3}
 
 
 def attribute_width(name: str) -> int:

@@ -904,6 +904,10 @@ struct PassTables {
     double vector_raster[48];               /* (3, 4, 4) VectorTables.raster: before, at and after the frame */
     int32_t vector_still;                   /* VectorTables.still: 1 writes 0 motion */
     int64_t vector_rows;                    /* the rows of vector_before and vector_after */
+    const int32_t *vector_deformed;         /* (n,) VectorTables.deformed (NULL: no mesh deforms) */
+    const double *vector_objects;           /* (n, 2, 3, 4) VectorTables.objects */
+    int32_t vector_offset_before;           /* VectorTables.offsets[0]: the motion:before attribute's first float */
+    int32_t vector_offset_after;            /* VectorTables.offsets[1] */
     int32_t aov_base;                       /* the AOVs' first channel (PassLayout.aov_base), -1: none */
     const WorldGraph *world_aovs;           /* the world's AOV Output nodes (world_graph.compile_aovs), NULL: none written */
 };
@@ -1333,7 +1337,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
-    if (strcmp(name, "PassTables") == 0) return UINT64_C(4176740806201037447);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(4132924901352058011);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);

@@ -153,6 +153,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     if blur_because not in ("", "no object moves", "no motion blur"):
         warnings.append("motion blur: the moving objects are rendered still where they are at the frame "
                         f"({blur_because})")
+    if "vector" in settings.passes and scene.camera.shutter is None:
+        scene = passes_.with_vector_deformation(scene)      # (deforming meshes' vertices then, as attributes)
     if geometry is None:
         geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing),
                                   motion_blur=not blur_because)
@@ -191,7 +193,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
         ctx.extra["crypto_ids"] = cryptomatte.id_tables(scene)
     if ctx.extra["pass_layout"].has("vector"):         # (the screen motion of each instance and the camera)
         ctx.extra["vector_tables"] = passes_.vector_tables(scene, settings.width, settings.height,
-                                                           settings.pixel_aspect, scene.camera.shutter is not None)
+                                                           settings.pixel_aspect, scene.camera.shutter is not None,
+                                                           geometry.attribute_layout)
     # The light groups asked for: which group each light, object and the world belongs to (lightgroups.py).
     ctx.extra["light_groups"] = lightgroups.LightGroups.of(scene, settings.light_groups, lamps, lights)
     # Which lights BSDF-sampled rays can find (weighed by MIS), which the camera sees, and whether a

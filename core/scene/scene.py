@@ -118,6 +118,11 @@ class Instance:
     vector_motion: its object-to-world matrices (4, 4) at the frames before and after the one rendered, (before,
                after), when the Vector pass is written and it moves between them (core/integrators/passes.py); ()
                still.
+    vector_deformation: its mesh's object-space vertex positions (v, 3) float64 at the frames before and after the
+               one rendered, (before, after), when the Vector pass is written and they deform between them (Cycles'
+               motion vertex positions); either None (or of another vertex count: the topology changed) where that
+               frame's vertices are the mesh's own, as Cycles copies them there (passes.with_vector_deformation); ()
+               rigid.
     """
 
     mesh: int
@@ -150,6 +155,7 @@ class Instance:
     deformation: tuple = ()
     deformation_normals: tuple = ()
     vector_motion: tuple = ()
+    vector_deformation: tuple = ()
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
