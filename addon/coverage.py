@@ -272,7 +272,8 @@ COVERAGE = {
                "motion_steps use_motion_blur": "motion.motion_steps (the camera's and each object's transforms over "
                                                "the shutter, motion.give_motion)",
                "use_deform_motion": "motion._object_state (a deforming mesh's vertices over the shutter, "
-                                    "motion.give_motion)",
+                                    "motion.give_motion, and at the Vector pass's frames, "
+                                    "motion.sample_vector_frames)",
                "use_camera_cull use_distance_cull": "export.object_culling (each object's Culling flags)",
                "ao_distance": "export.instance_keywords (its own Fast GI AO Distance, core Instance.ao_distance)"},
         REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes",
