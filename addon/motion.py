@@ -23,6 +23,11 @@ vertex normals there, Instance.deformation_normals, which the render interpolate
 a deforming mesh with smooth faces whose normals are per corner keeps them as they are at the frame (a note says so).
 An object that moves or deforms and cannot be read so is named in a note and rendered
 where it is at the frame.
+
+The Vector pass (without motion blur: sample_vector_frames) reads the frames before and after the same way: the
+objects' transforms there (Instance.vector_motion) and a deforming mesh's vertices (Instance.vector_deformation,
+Cycles' motion vertex positions); a mesh object that may deform but has more than DEFORM_CHECK_VERTICES vertices is
+not read, and named in a note (its pass carries its transform alone).
 """
 from __future__ import annotations
 
@@ -262,9 +267,30 @@ def sample_vector_frames(engine, depsgraph, camera_object, camera, export_camera
         if any(shape is not None for shape in shapes):      # (the vertices then: the core compares and maps them)
             instances[index].vector_deformation = tuple(None if shape is None else shape.reshape(-1, 3).astype(np.float64)
                                                         for shape in shapes)
+    unread = unread_deforming(depsgraph)
+    if unread:
+        warnings.append(f"the Vector pass: {named(unread)} may deform between frames (modifiers or shape keys) but "
+                        f"ha{'s' if len(unread) == 1 else 've'} more than {DEFORM_CHECK_VERTICES} vertices, which "
+                        "Primer does not read: its pass carries only the objects' transforms there")
     if any(camera.type == "PANO" for camera in cameras):
         warnings.append("the Vector pass of a panoramic camera is not mapped by Primer (it stays 0)")
     return tuple(cameras)
+
+
+def unread_deforming(depsgraph) -> set:
+    """The names of the rendered mesh objects that may deform (Deformation and Motion Blur on, modifiers or shape
+    keys) but whose vertices _object_state does not read (more than DEFORM_CHECK_VERTICES)."""
+    names = set()
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if instance.is_instance or obj.type != "MESH" or motion_steps(obj) == 0:
+            continue
+        mesh = obj.data
+        if (bool(getattr(getattr(obj, "cycles", None), "use_deform_motion", True))
+                and (len(obj.modifiers) or getattr(mesh, "shape_keys", None) is not None)
+                and len(mesh.vertices) > DEFORM_CHECK_VERTICES):
+            names.add(obj.name)
+    return names
 
 
 def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warnings: list, instances=(),
