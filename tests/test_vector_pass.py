@@ -105,9 +105,10 @@ def turned(scale: float, offset) -> np.ndarray:
 def test_a_mesh_whose_vertices_shift_between_frames_moves_by_that_shift_carried_by_its_transform(kernels):
     """Cycles' deformation motion: a floor whose vertices (object space) stand e = (0.1, 0.05, 0) back a frame earlier
     and as far on a frame later (Instance.vector_deformation), under a transform turning it a quarter about z and
-    scaling it by 2, moves in the world by d = M e = (-0.1, 0.2, 0): with the orthographic camera (8 pixels a unit)
-    also moving 0.05 along +x a frame, the pass is 8 ((-d) - (-c)) on both sides of the frame, (1.2, -1.6, 1.2, -1.6),
-    in every pixel (a shift interpolates to itself; within 5e-5 pixel: the positions are kept as float32
+    scaling it by 2, moves in the world by d = M e = (-0.1, 0.2, 0), and the object slides t = (0, 0.0625, 0) a frame
+    besides (its transform then carries the vertices then): with the orthographic camera (8 pixels a unit) also
+    moving c = 0.05 along +x a frame, the pass is 8 ((-d - t) - (-c)) on both sides of the frame, (1.2, -2.1, 1.2,
+    -2.1), in every pixel (a shift interpolates to itself; within 5e-5 pixel: the positions are kept as float32
     attributes)."""
     scene, settings = floor_under(ortho_camera())
     floor = scene.instances[0]
@@ -116,14 +117,16 @@ def test_a_mesh_whose_vertices_shift_between_frames_moves_by_that_shift_carried_
     e = np.array([0.1, 0.05, 0.0])
     vertices = scene.meshes[0].vertices
     floor.vector_deformation = (vertices - e, vertices + e)
+    t = np.array([0.0, 0.0625, 0.0])                  # (the object's own slide, M_before and M_after)
+    floor.vector_motion = (shifted(floor.matrix, -t), shifted(floor.matrix, t))
     camera = scene.camera
     c = np.array([0.05, 0.0, 0.0])
     scene.vector_cameras = (dataclasses.replace(camera, matrix_world=shifted(camera.matrix_world, -c)),
                             dataclasses.replace(camera, matrix_world=shifted(camera.matrix_world, c)))
     vector = render.render(scene, dataclasses.replace(settings, kernels=kernels)).aux["vector"]
     d = floor.matrix[:3, :3] @ e
-    expected = 8.0 * np.r_[(-d)[:2] - (-c)[:2], (-d)[:2] - (-c)[:2]]
-    np.testing.assert_allclose(expected, [1.2, -1.6, 1.2, -1.6], atol=1e-12)
+    expected = 8.0 * np.r_[(-d - t)[:2] - (-c)[:2], (-d - t)[:2] - (-c)[:2]]
+    np.testing.assert_allclose(expected, [1.2, -2.1, 1.2, -2.1], atol=1e-12)
     np.testing.assert_allclose(vector, np.broadcast_to(expected, vector.shape), atol=5e-5)
 
 
