@@ -192,3 +192,17 @@ def test_the_compiled_deformation_motion_follows_the_reference():
     assert compiled.stats.kernels == "compiled"
     np.testing.assert_allclose(compiled.aux["vector"], reference.aux["vector"], atol=1e-6)
     assert np.abs(reference.aux["vector"]).max() > 1.0
+
+
+def test_a_deformation_without_room_among_the_attributes_is_noted_and_left_to_the_transform():
+    """The materials' attributes take graph.MAX_ATTRIBUTES floats a corner at most: where the deforming meshes'
+    vertices (6 more) do not fit, the scene is left as it is, with a note."""
+    from core.integrators import passes
+    from core.materials import graph
+    scene = Scene(camera=ortho_camera())
+    scene.add_mesh(primitives.plane(2.0))
+    mesh = scene.meshes[0]
+    mesh.attributes = {f"attr:a{k}": np.zeros((2, 3, 4)) for k in range(graph.MAX_ATTRIBUTES // 4 - 1)}
+    scene.instances[0].vector_deformation = (mesh.vertices + 1.0, None)
+    notes = []
+    assert passes.with_vector_deformation(scene, notes) is scene and "no room" in notes[0]

@@ -66,7 +66,8 @@ sample-0 ones (FIRST_SAMPLE_ONLY), with the render's pixel filter (Primer's 1-pi
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+import dataclasses
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -75,6 +76,7 @@ from .. import volumes
 from ..camera import camera as camera_
 from ..geometry.surface import hit_attributes, hit_owners
 from ..lights import world_graph
+from ..materials import graph as graph_
 from ..materials.closures import each_kind
 from ..materials.lambert import Lambert
 from ..native import schema
@@ -475,7 +477,7 @@ class VectorTables(NamedTuple):
     frame before, at the frame and at the frame after; still: 1 with motion blur on (Cycles writes 0 then).
     Deformation (Cycles' motion vertex positions): deformed (n,) int32 1 where the instance's mesh carries its
     vertices at the neighbouring frames as the attributes VECTOR_ATTRIBUTES (with_vector_deformation), whose
-    first floats sit at offsets (2,) int64 (before, after; -1: the geometry has none); objects (n, 2, 3, 4) float64
+    first floats sit at offsets (before, after: two ints; -1: the geometry has none); objects (n, 2, 3, 4) float64
     each instance's object-to-world transform at the frame before and after (M_before, M_after: M where still),
     which carries those object-space positions into the world."""
 
@@ -493,14 +495,22 @@ class VectorTables(NamedTuple):
 VECTOR_ATTRIBUTES = ("motion:before", "motion:after")
 
 
-def with_vector_deformation(scene):
+def with_vector_deformation(scene, warnings: Optional[list] = None):
     """The scene with each mesh that deforms between the neighbouring frames (Instance.vector_deformation) carrying
     its vertices there as the per-corner attributes VECTOR_ATTRIBUTES (object space, (t, 3, 3)), as Cycles exports
     its motion vertex positions; `scene` itself where none deforms. A frame whose vertices are missing, of another
     count (the topology changed) or not finite takes the mesh's own vertices, as Cycles' sync_mesh_motion copies the
     frame's there ("Topology differs, discarding motion blur"): that frame's motion is the transform's alone. The
-    meshes are replaced, not changed (an exported scene may be cached)."""
-    import dataclasses
+    meshes are replaced, not changed (an exported scene may be cached). Where the materials' attributes leave no
+    room for them (graph.MAX_ATTRIBUTES floats a corner), `scene` itself, noted in `warnings`."""
+    if not any(instance.vector_deformation for instance in scene.instances):
+        return scene
+    names = set().union(*[(getattr(mesh, "attributes", None) or {}).keys() for mesh in scene.meshes])
+    if sum(graph_.attribute_width(name) for name in names | set(VECTOR_ATTRIBUTES)) > graph_.MAX_ATTRIBUTES:
+        if warnings is not None:
+            warnings.append("the Vector pass: the materials' mesh attributes leave no room for the deforming meshes' "
+                            "vertices at the neighbouring frames; their pass carries only the objects' transforms")
+        return scene
     meshes = list(scene.meshes)
     changed = False
     for instance in scene.instances:

@@ -154,7 +154,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
         warnings.append("motion blur: the moving objects are rendered still where they are at the frame "
                         f"({blur_because})")
     if "vector" in settings.passes and scene.camera.shutter is None:
-        scene = passes_.with_vector_deformation(scene)      # (deforming meshes' vertices then, as attributes)
+        scene = passes_.with_vector_deformation(scene, warnings)     # (deforming meshes' vertices then: attributes)
     if geometry is None:
         geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing),
                                   motion_blur=not blur_because)
