@@ -1,6 +1,6 @@
 """Cycles' Fast GI Approximation. Replace: past AO Bounces a path's ray looks AO Distance far, ends its path at the
 surface it meets, and brings the world's light times the AO Factor where it escapes. Add: every vertex adds ambient
-occlusion times its diffuse closures' weights times the factor. Closed forms on both kernels."""
+occlusion times its diffuse-type closures' weights times the factor. Closed forms on both kernels."""
 from __future__ import annotations
 
 import dataclasses
@@ -132,6 +132,26 @@ def test_fast_gi_add_is_occluded_by_a_surface_within_ao_distance(kernels):
     far = render.render(scene, dataclasses.replace(settings(kernels, ao_additive_factor=0.7, ao_distance=0.5),
                                                    samples=256))
     assert far.image[..., :3].mean() == pytest.approx(ALBEDO * (SKY * (1.0 - F) + 0.7), rel=0.03)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_fast_gi_add_takes_closures_of_the_diffuse_type_not_the_diffuse_label(kernels):
+    """Cycles' surface_shader_ao takes the closures whose *type* is diffuse (CLOSURE_IS_BSDF_DIFFUSE): on the
+    open-sky floor seen straight down, a Microfiber Sheen of colour c (the diffuse type) adds its closure's weight
+    c x R(mu 1, roughness 1) = 0.34 c x a (exactly: the same paths with and without Add); the Ashikhmin velvet, labelled diffuse
+    but of the glossy type (CLOSURE_BSDF_ASHIKHMIN_VELVET_ID), adds nothing."""
+    from core.materials.sheen import params_of
+    color = (0.9, 0.6, 0.3)
+    for velvet in (0.0, 1.0):
+        scene = floor_under_sky()
+        scene.materials[0] = materials.Material(name="cloth", nodes=[
+            ("SHEEN", color, {"roughness": 1.0, "velvet": velvet})])
+        plain = render.render(scene, settings(kernels)).image[..., :3]
+        added = render.render(scene, settings(kernels, ao_additive_factor=0.7)).image[..., :3]
+        R = 0.0 if velvet else float(params_of(np.array([1.0]), np.array([1.0]))[1][0])
+        assert velvet or R == pytest.approx(0.3419, abs=1e-4)
+        np.testing.assert_allclose(added - plain, np.broadcast_to(np.multiply(color, R * 0.7), plain.shape),
+                                   rtol=1e-4, atol=1e-7, err_msg=f"velvet {velvet}")
 
 
 def test_compiled_fast_gi_add_follows_the_reference():

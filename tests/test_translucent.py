@@ -108,3 +108,29 @@ def test_a_sheet_lit_from_behind_glows_with_albedo_over_pi_times_the_irradiance(
     np.testing.assert_allclose(result.aux["diffuse_direct"] * result.aux["diffuse_color"], result.image[..., :3],
                                rtol=1e-5)
     np.testing.assert_array_equal(result.aux["transmission_direct"], 0.0)
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_light_behind_the_smooth_normal_but_in_front_of_the_face_is_blocked_by_the_surface_itself(kernels):
+    """A smooth sheet whose corner normals lean 30 degrees off its face, a sun 75 degrees from the face on the other
+    side: the light is in front of the face (Ng.L = cos 75) but behind the shading normal (N.L = cos 105), where the
+    translucent closure takes it. Cycles' shadow_ray_offset (terminator fix, Geometry Offset 0.1) casts that ray from
+    the surface's back without skipping its own triangle: the sheet itself blocks it, black. With Geometry Offset 0
+    the ray leaves from the front and escapes: albedo / pi x S x |N.L|. (Issue 32's Hair BSDF Transmission row.)"""
+    albedo, strength = np.array([0.7, 0.5, 0.2]), 3.0
+    matrix = np.eye(4)
+    matrix[2, 3] = 3.0
+    scene = Scene(camera=Camera(matrix_world=matrix, type="ORTHO", ortho_scale=2.0, clip_start=0.1, clip_end=10.0))
+    scene.materials.append(Material(name="Sheet", nodes=[("TRANSLUCENT", albedo, {})]))
+    a, b = math.radians(30.0), math.radians(75.0)
+    sheet = primitives.plane(20.0)
+    sheet.smooth[:] = True
+    sheet.corner_normals = np.tile([math.sin(a), 0.0, math.cos(a)], (2, 3, 1))
+    scene.add_mesh(sheet)
+    scene.lights.append(SunLight(direction=-np.array([-math.sin(b), 0.0, math.cos(b)]), strength=strength))
+    settings = RenderSettings(width=6, height=4, samples=4, kernels=kernels, terminator_fix=True)
+    np.testing.assert_array_equal(render(scene, settings).image[..., :3], 0.0)
+    settings.terminator_offset = 0.0
+    expected = albedo / math.pi * strength * abs(math.cos(a + b))
+    np.testing.assert_allclose(render(scene, settings).image[..., :3], np.broadcast_to(expected, (4, 6, 3)),
+                               rtol=1e-6)

@@ -390,17 +390,18 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         double position[3] = {b->position[0][k], b->position[1][k], b->position[2][k]};
         /* a. N.L > 0 and Ng.L > 0 (smooth points lifted by the terminator fix leave that to their ray); a
          *    surface that lets light through from behind takes light from both sides, reached from behind
-         *    by a ray from its back (no lift). */
+         *    by a ray from its back (no lift): where the fix lifts, the lights behind N, else behind the face
+         *    (vertex.reaching_from_behind: Cycles' shadow_ray_offset, its own face then not skipped). */
         double NL = dot3(n, L), NgL = dot3(ng, L);
-        int through = b->through[k] != 0.0, behind = through & (NgL < 0.0);
+        int lifts = (lifting * b->smooth[k]) != 0.0 && cutoff > 0.0;
+        int through = b->through[k] != 0.0, behind = through & (lifts ? NL < 0.0 : NgL < 0.0);
         double cosine = through ? fabs(NL) : at_least(NL, 0.0);
         int face_allows = (NgL > 0.0) | ((fix * b->smooth[k]) != 0.0) | through;
         /* (a negative lamp takes light away, as in Cycles) */
         b->keep[k] = ((cosine != 0.0) & face_allows & ((b->strength[k] > 0.0) | (b->strength[k] < 0.0))) ? 1.0 : 0.0;
         if (behind) for (int c = 0; c < 3; c++) ng[c] = -ng[c];
         /* b. The ray, from I or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
-        double amount = (lifting * b->smooth[k]) != 0.0 && cutoff > 0.0 && !behind ? terminator_amount(NL, NgL, cutoff)
-                                                                                   : 0.0;
+        double amount = lifts && !behind ? terminator_amount(NL, NgL, cutoff) : 0.0;
         double origin[3], D[3], t;
         shadow_ray(P, ng, lifted, b->offset[k], amount, L, b->distance[k], position, robust, epsilon, origin, D, &t);
         for (int c = 0; c < 3; c++) { b->origin[c][k] = origin[c]; b->D[c][k] = D[c]; }

@@ -154,7 +154,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
     }
 }
 
-/* path.fast_gi_added for hit h of H (Fast GI's Add): alpha x the sum of its diffuse closures' weights x
+/* path.fast_gi_added for hit h of H (Fast GI's Add): alpha x the sum of its diffuse-type closures' weights x
  * ao_additive_factor where one cosine-distributed ray about their weighted normal escapes within ao_distance (times
  * the transparency of the surfaces it passes), into added (3); zero where it has no diffuse closure. */
 NOINLINE static void fast_gi_added(const DirectSettings *ds, const BlockHits *H, int64_t h, double *added)
@@ -165,7 +165,9 @@ NOINLINE static void fast_gi_added(const DirectSettings *ds, const BlockHits *H,
     for (int c = 0; c < 3; c++) added[c] = 0.0;
     for (int k = 0; k < sd->n; k++) {
         const Closure *cl = sd->c + k;
-        if (cl->kind < 0 || !bsdf_is(cl->kind, BSDF_FLAG_DIFFUSE)) continue;
+        /* (path.is_ao_closure: Cycles' CLOSURE_IS_BSDF_DIFFUSE, the diffuse type less the BSSRDFs) */
+        if (cl->kind < 0 || !bsdf_is(cl->kind, BSDF_FLAG_DIFFUSE_TYPE) || bsdf_is(cl->kind, BSDF_FLAG_SUBSURFACE))
+            continue;
         double w = fabs((cl->weight[0] + cl->weight[1] + cl->weight[2]) / 3.0);
         for (int c = 0; c < 3; c++) { weight[c] += cl->weight[c]; total[c] += w * cl->N[c]; }
     }

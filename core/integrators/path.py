@@ -171,9 +171,19 @@ def caustics_filter(settings, after_diffuse: np.ndarray):
     return np.where(after_diffuse, bits, 0)
 
 
+def is_ao_closure(kind: np.ndarray) -> np.ndarray:
+    """Whether closures of kind `kind` (int, any shape) take Fast GI's Add term: bool, kind's shape. Cycles'
+    surface_shader_ao takes the closures whose type is CLOSURE_IS_BSDF_DIFFUSE (Diffuse, Oren-Nayar, Burley, Sheen,
+    Diffuse Toon, Translucent): BSDFFlags.DIFFUSE_TYPE, less the BSSRDFs (which carry it for the light passes); the
+    diffuse *label* does not decide (the Ashikhmin velvet is labelled diffuse but of the glossy type: no AO)."""
+    F = materials_.BSDFFlags
+    return materials_.has(kind, F.DIFFUSE_TYPE) & ~materials_.has(kind, F.SUBSURFACE)
+
+
 def fast_gi_added(ctx: Context, surface, shader, pixel: np.ndarray, sample: np.ndarray, dimension: int) -> np.ndarray:
     """Fast GI's Add method at the m hits of `surface` with `shader` (pixel, sample (m,) int64 their keys): the light
-    (m, 3) float64 each adds to Combined, alpha x the sum of its diffuse closures' weights x ao_additive_factor where
+    (m, 3) float64 each adds to Combined, alpha x the sum of its diffuse-type closures' weights (is_ao_closure) x
+    ao_additive_factor where
     one cosine-distributed ray about their weighted normal (sum of N |mean weight|, the shading normal where none)
     escapes within ao_distance (times the transparency of the surfaces it passes: passes.ambient_occlusion), as
     Cycles' integrate_surface_ao and surface_shader_ao; zero with the setting off (0) or an integrator other than
@@ -187,7 +197,7 @@ def fast_gi_added(ctx: Context, surface, shader, pixel: np.ndarray, sample: np.n
     closures = shader.closures
     weight, normal = np.zeros((m, 3)), np.zeros((m, 3))
     for slot in range(closures.kind.shape[1]):
-        diffuse = materials_.has(closures.kind[:, slot], materials_.BSDFFlags.DIFFUSE)
+        diffuse = is_ao_closure(closures.kind[:, slot])
         w = np.where(diffuse[:, None], closures.weight[:, slot], 0.0)
         weight += w
         normal += np.abs(w.mean(axis=1))[:, None] * closures.N[:, slot]

@@ -204,8 +204,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             if len(rows) == 0:
                 continue
             # c. One shadow ray per lit sample, from a point safely off the surface.
-            rays = aim_shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows] & (NgL[rows] < 0.0),
-                                   ctx.geometry)
+            rays = aim_shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows], ctx.geometry)
             blockers = shadow_blockers(ctx, light, ls, rows)
             if not light.cast_shadow:
                 # A lamp with Cast Shadow off (Cycles' light.use_shadow): no shadow ray, nothing blocks it.
@@ -476,14 +475,18 @@ def terminator_bent(ctx: Context, surface, shader):
 
 
 def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.ndarray, offsets,
-                behind=None, geometry=None) -> shadows.ShadowRays:
+                through=None, geometry=None) -> shadows.ShadowRays:
     """Return the shadow rays of the hits `rows` towards their light samples (robust or epsilon offsets);
-    behind (r,) bool: lights behind the face of a surface that lets light through, reached from its back."""
+    through (r,) bool: the hits whose closures let light through from behind (lets_light_through), which reach the
+    lights behind them by a ray from their back (reaching_from_behind)."""
     I = surface.I[rows]
     Ng = surface.Ng[rows]
+    behind = None if through is None else through & (NgL[rows] < 0.0)
     if s.terminator_fix:
         cutoff = (np.full(len(rows), s.terminator_offset) if geometry is None
                   else geometry.terminator_offsets(surface.prim[rows], s.terminator_offset))
+        if through is not None:
+            behind = reaching_from_behind(through, surface.smooth[rows] & (cutoff > 0.0), NL[rows], NgL[rows])
         I = shadows.lift_terminator(surface, rows, NL[rows], NgL[rows], cutoff)
     elif s.shadow_rays_for_backfacing or s.visibility_normal != "face":
         # Switches that cast rays towards lights behind the face: offset to the light's side.
@@ -499,6 +502,16 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
     # (a shadow ray carries its path's time: where moving objects block it)
     return rays if surface.time is None else rays._replace(time=surface.time[rows])
 
+
+
+def reaching_from_behind(through: np.ndarray, lifts: np.ndarray, NL: np.ndarray, NgL: np.ndarray) -> np.ndarray:
+    """Which light samples (r,) bool a surface that lets light through (`through` (r,) bool) reaches by a shadow ray
+    from its back (from I, offset along -Ng, its own face not skipped). Where the terminator fix moves its shadow rays
+    (`lifts` (r,) bool: a smooth triangle with a Geometry Offset above 0), the shading normal decides, as Cycles'
+    shadow_ray_offset: a light behind N (N.L < 0, `NL`) is reached from the back, and one in front of the face
+    (Ng.L > 0, `NgL`) is then behind the surface itself, whose own face blocks the ray (Cycles keeps such a ray from
+    skipping its own triangle); elsewhere the face decides (Ng.L < 0)."""
+    return through & np.where(lifts, NL < 0.0, NgL < 0.0)
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
