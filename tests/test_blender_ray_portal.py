@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from blender_env import ROOT, run_bpy
+from one_process import RUNNER
 
 pytestmark = pytest.mark.blender
 
@@ -245,30 +246,7 @@ def test_the_light_path_nodes_portal_depth_counts_ray_portal_bounces_as_in_cycle
         assert low == pytest.approx(expected, rel=1e-5) and high == pytest.approx(expected, rel=1e-5), report["pixels"]
 
 
-# The three scripts above run one after the other in one Blender process (one start for the file's tests), each in a
-# folder of its own and a namespace of its own, report() keeping what each reports. Each script unregisters Primer at
-# its end (bpy 4.2 crashes at exit while a Python RenderEngine is registered); the next registers it again.
-RUNNER = """
-import os, sys
-import blender_env
-results = {{}}
-
-
-def keep(**values):
-    results[current] = values
-
-
-real_report, blender_env.report = blender_env.report, keep
-for current, source in {sources!r}.items():
-    os.makedirs(current)
-    os.chdir(current)
-    exec(compile(source, current + ".py", "exec"), {{"__name__": "__main__"}})
-    os.chdir("..")
-    sys.modules["primer"]._registered_by_load_primer = False        # (tools/render.py load_primer: register again)
-real_report(results=results)
-"""
-
-
+# The three scripts above run one after the other in one Blender process (one start for the file's tests).
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):
     """The three scripts' reports, from one Blender process: ({"portal": ..., "shadows": ..., "depth": ...}, the folder
