@@ -3,12 +3,14 @@
 A Blender process and Primer's registration cost about 2.4 s of CPU before anything renders (docs/testing.md): a test
 file whose tests each start one pays that per test. RUNNER (a script for run_bpy, formatted with `sources`, a dict
 name -> script) runs each script in a folder <name>/ of its own and a namespace of its own, keeps what each hands to
-report(), and reports {"results": {name: its values}}. Each script unregisters Primer at its end (bpy 4.2 crashes at
-exit while a Python RenderEngine is registered); the next one's fresh_scene registers it again.
+report(), and reports {"results": {name: its values}}. Each script starts as in a process of its own, Primer not
+registered: what a script leaves registered is unregistered after it (bpy 4.2 crashes at exit while a Python
+RenderEngine is registered, so most scripts unregister it themselves), and the next one's load_primer registers it.
 """
 
 RUNNER = """
 import os, sys
+import bpy
 import blender_env
 results = {{}}
 
@@ -23,6 +25,10 @@ for current, source in {sources!r}.items():
     os.chdir(current)
     exec(compile(source, current + ".py", "exec"), {{"__name__": "__main__"}})
     os.chdir("..")
-    sys.modules["primer"]._registered_by_load_primer = False        # (tools/render.py load_primer: register again)
+    primer = sys.modules.get("primer")
+    if primer is not None:                      # each script starts as in a process of its own: Primer unregistered
+        if hasattr(bpy.types.Scene, "primer"):  # (a script that left it registered)
+            primer.unregister()
+        primer._registered_by_load_primer = False      # (tools/render.py load_primer: register it again)
 real_report(results=results)
 """
