@@ -417,8 +417,8 @@ def test_window_coordinates_under_panoramic_cameras_are_cycles(results):
         assert mean < 5e-3 and median < 1e-3, (kind, mean, median)
 
 
-PANORAMA_KINDS = ["EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE", "MIRRORBALL", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID",
-                  "CENTRAL_CYLINDRICAL", "FISHEYE_LENS_POLYNOMIAL"]
+PANORAMA_KINDS = ["EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE", "MIRRORBALL", "FISHEYE_EQUIDISTANT",
+                  "FISHEYE_EQUISOLID", "CENTRAL_CYLINDRICAL", "FISHEYE_LENS_POLYNOMIAL"]
 
 
 @pytest.fixture(scope="module")

@@ -183,9 +183,9 @@ report(cases=cases)
 # Every case, rendered in one Blender process (one start and one registration of Primer for the file's tests).
 # The cases that path-trace (Max Bounces, the lamp's and the world's) come last: each sets the integrator itself.
 CASES = ["cast shadow off", "cast shadow on", "seen by all", "hidden from diffuse", "hidden from glossy",
-         "hidden from camera", "mis off", "negative lamp", "metal point", "metal spot", "metal sun", "sun seen by camera",
-         "lamp nodes constant", "lamp nodes varying", "max bounces 0", "max bounces 1024", "world max bounces 0",
-         "world max bounces 1024"]
+         "hidden from camera", "mis off", "negative lamp", "metal point", "metal spot", "metal sun",
+         "sun seen by camera", "lamp nodes constant", "lamp nodes varying", "max bounces 0", "max bounces 1024",
+         "world max bounces 0", "world max bounces 1024"]
 
 
 @pytest.fixture(scope="module")
