@@ -38,7 +38,8 @@ def material(name, kind, color, roughness=None):
 bpy.ops.mesh.primitive_plane_add(size=10.0)
 bpy.context.object.data.materials.append(material("Floor", "ShaderNodeBsdfDiffuse", (0.8, 0.8, 0.8)))
 bpy.ops.mesh.primitive_plane_add(size=2.0, location=(0.0, 1.0, 1.0), rotation=(1.5707963, 0.0, 0.0))
-bpy.context.object.data.materials.append(material("Mirror", "ShaderNodeBsdfGlossy", (0.95, 0.8, 0.6), 0.0))
+mirror = bpy.context.object
+mirror.data.materials.append(material("Mirror", "ShaderNodeBsdfGlossy", (0.95, 0.8, 0.6), 0.0))
 sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
 sun.data.energy, sun.data.angle = 3.0, 0.05
 sun.rotation_euler = (0.56, 0.0, 0.0)
@@ -62,31 +63,9 @@ configure_output(scene, path)
 render_still(scene, path, "mirror cycles")
 image = bpy.data.images.load(path)
 out["cycles"] = np.array(image.pixels[:]).reshape(image.size[1], image.size[0], -1)[..., :3].tolist()
-report(images=out)
 """
-
-
-@pytest.fixture(scope="module")
-def images(tmp_path_factory):
-    return run_bpy(SCRIPT, str(tmp_path_factory.mktemp("filter_glossy")), timeout=900)["images"]
-
-
-def test_filter_glossy_blurs_the_caustic_a_diffuse_bounce_sees_as_cycles_does(images):
-    """With Filter Glossy 1 Primer's image is Cycles' within the noise (block relMSE), the sharp image (the
-    setting off) is not, and nothing is said about the setting."""
-    from core.film.compare import relative_mse_of_blocks
-    primer, cycles, sharp = (np.asarray(images[name]) for name in ("primer", "cycles", "sharp"))
-    blurred, unblurred = relative_mse_of_blocks(primer, cycles), relative_mse_of_blocks(sharp, cycles)
-    print(f"Filter Glossy 1: {blurred:.2e}, off: {unblurred:.2e}, means {primer.mean():.4f} {sharp.mean():.4f} "
-          f"{cycles.mean():.4f}")
-    assert not [w for w in images["primer warnings"] if "Filter Glossy" in w]
-    assert blurred < 2e-3 and unblurred > 3 * blurred, (blurred, unblurred)
-
-
-HAIR_SCRIPT = SCRIPT.split("out = {}")[0].replace(
-    'bpy.context.object.data.materials.append(material("Mirror", "ShaderNodeBsdfGlossy", (0.95, 0.8, 0.6), 0.0))',
-    'mirror = bpy.context.object') + """
-out = {}
+# The same scene, the mirror a Principled Hair sheet (each model), in the same Blender process.
+SCRIPT += """
 for model in ("CHIANG", "HUANG"):
     m, tree, output = empty_material(model)
     node = tree.nodes.new("ShaderNodeBsdfHairPrincipled")
@@ -116,12 +95,26 @@ report(images=out)
 
 
 @pytest.fixture(scope="module")
-def hair_images(tmp_path_factory):
-    return run_bpy(HAIR_SCRIPT, str(tmp_path_factory.mktemp("filter_glossy_hair")), timeout=900)["images"]
+def images(tmp_path_factory):
+    """Every render of the file, the metal mirror's and the hair sheets', from one Blender process (one start and
+    one registration of Primer for both scenes): name -> (H, W, 3) list."""
+    return run_bpy(SCRIPT, str(tmp_path_factory.mktemp("filter_glossy")), timeout=900)["images"]
+
+
+def test_filter_glossy_blurs_the_caustic_a_diffuse_bounce_sees_as_cycles_does(images):
+    """With Filter Glossy 1 Primer's image is Cycles' within the noise (block relMSE), the sharp image (the
+    setting off) is not, and nothing is said about the setting."""
+    from core.film.compare import relative_mse_of_blocks
+    primer, cycles, sharp = (np.asarray(images[name]) for name in ("primer", "cycles", "sharp"))
+    blurred, unblurred = relative_mse_of_blocks(primer, cycles), relative_mse_of_blocks(sharp, cycles)
+    print(f"Filter Glossy 1: {blurred:.2e}, off: {unblurred:.2e}, means {primer.mean():.4f} {sharp.mean():.4f} "
+          f"{cycles.mean():.4f}")
+    assert not [w for w in images["primer warnings"] if "Filter Glossy" in w]
+    assert blurred < 2e-3 and unblurred > 3 * blurred, (blurred, unblurred)
 
 
 @pytest.mark.parametrize("model", ["CHIANG", "HUANG"])
-def test_filter_glossy_widens_the_hair_bsdfs_lobes_a_diffuse_bounce_sees_as_cycles_does(hair_images, model):
+def test_filter_glossy_widens_the_hair_bsdfs_lobes_a_diffuse_bounce_sees_as_cycles_does(images, model):
     """The mirror a Principled Hair sheet (roughness 0.05; Cycles' fibre along the triangles' dPdu): with Filter
     Glossy 1 Cycles widens its lobes (bsdf_hair_chiang_blur, bsdf_hair_huang_blur) and so does Primer: the floor
     (the image's top 16 rows; the sheet seen directly below them is not compared: there Primer's sharp hair lobe
@@ -129,9 +122,9 @@ def test_filter_glossy_widens_the_hair_bsdfs_lobes_a_diffuse_bounce_sees_as_cycl
     off (measured with 5.0.1: Chiang 7.8e-6 against 5.8e-4, Huang 1.5e-5 against 5.0e-5); nothing is said about
     the setting."""
     from core.film.compare import relative_mse_of_blocks
-    primer, cycles, sharp = (np.asarray(hair_images[f"{model} {name}"])[:16] for name in ("primer", "cycles", "sharp"))
+    primer, cycles, sharp = (np.asarray(images[f"{model} {name}"])[:16] for name in ("primer", "cycles", "sharp"))
     blurred, unblurred = relative_mse_of_blocks(primer, cycles), relative_mse_of_blocks(sharp, cycles)
     print(f"{model} Filter Glossy 1: {blurred:.2e}, off: {unblurred:.2e}, means {primer.mean():.4f} "
           f"{sharp.mean():.4f} {cycles.mean():.4f}")
-    assert not [w for w in hair_images[f"{model} primer warnings"] if "Filter Glossy" in w]
+    assert not [w for w in images[f"{model} primer warnings"] if "Filter Glossy" in w]
     assert blurred < 1e-4 and unblurred > 2 * blurred, (blurred, unblurred)

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from blender_env import require_bpy, run_bpy
+from one_process import RUNNER
 
 pytestmark = pytest.mark.blender
 
@@ -192,15 +193,15 @@ def interior(image: np.ndarray) -> np.ndarray:
     return (np.ptp(windows, axis=0) == 0.0).all(axis=2)
 
 
-def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_path):
+def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(results):
     """Every face of a sphere seen from the front and two planes seen from behind (past the critical angle for
     Fresnel at 60 degrees): Primer's pixels are Cycles' values to float32 rounding where they are one value in a
     pixel, within sampling noise where they vary across it; what Primer does not read is warned of."""
-    script = SCRIPT.format(pixels=PIXELS, rows=ROWS, samples=SAMPLES)
-    result = run_bpy(script, str(tmp_path))
+    reports, folder = results
+    result = reports["inputs"]
     # (the Pixel Size Wireframe's emitting tile is warned of where light samples would land on it: none do here)
     assert [w for w in result["warnings"] if "light-sampled emitter" not in w] == []
-    primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")
+    primer, cycles = np.load(folder / "inputs" / "primer.npy"), np.load(folder / "inputs" / "cycles.npy")
     assert primer.shape == cycles.shape
     inside, covered = interior(cycles), interior((cycles.max(axis=2, keepdims=True) > 0.0).astype(np.float64))
     worst, mean, counted = {}, {}, {}
@@ -273,11 +274,11 @@ report(primer=area["PRIMER"], cycles=area["CYCLES"])
 """
 
 
-def test_wireframe_pixel_size_under_a_perspective_camera_is_as_wide_as_cycles(tmp_path):
+def test_wireframe_pixel_size_under_a_perspective_camera_is_as_wide_as_cycles(results):
     """A grid turned away from a perspective camera, its wires 2 pixels wide at every distance and slant: the wires'
     area (the sum of Fac) is Cycles' within 2% (measured -0.1% at 16 samples, -0.02% at 32; a wire of Size in world units, or a
     pixel measured at the wrong distance, changes it by its whole width's ratio)."""
-    result = run_bpy(PERSPECTIVE_WIRES.format(samples=16), str(tmp_path))
+    result = results[0]["perspective"]
     print("wires' area, Primer / Cycles - 1:", result["primer"] / result["cycles"] - 1.0)
     assert result["primer"] == pytest.approx(result["cycles"], rel=0.02)
 
@@ -313,13 +314,13 @@ report(area=area, warnings=warnings)
 """
 
 
-def test_wireframe_pixel_size_seen_in_a_mirror_is_as_wide_as_cycles(tmp_path):
+def test_wireframe_pixel_size_seen_in_a_mirror_is_as_wide_as_cycles(results):
     """A wall of wires 2 pixels wide seen in a 45-degree mirror (path traced, one bounce), read with no warning: the
     ray cone Primer carries along the path as Cycles' compact ray differentials do (the footprint where the ray
     bounces, widening on by the camera ray's spread: 0 under an orthographic camera) gives the wires' area (the sum
     of Fac) of Cycles within 2% under an orthographic and a perspective camera (measured: see docs/blender.md;
     measuring the pixel at the hit's own distance from the camera gave -34% under the perspective one)."""
-    result = run_bpy(MIRRORED_WIRES.format(samples=16), str(tmp_path))
+    result = results[0]["mirrored"]
     assert result["warnings"] == []
     for kind, area in result["area"].items():
         print(kind, "wires' area in the mirror, Primer / Cycles - 1:", area["PRIMER"] / area["CYCLES"] - 1.0)
@@ -356,13 +357,13 @@ report(means=means, warnings=warnings)
 """
 
 
-def test_wireframe_pixel_size_on_an_emitter_found_by_bounce_rays_is_cycles_and_warned_at_light_samples(tmp_path):
+def test_wireframe_pixel_size_on_an_emitter_found_by_bounce_rays_is_cycles_and_warned_at_light_samples(results):
     """An emitter of wires 30 pixels wide (all of it wire at a pixel of 0.25) lights a floor, unseen by the camera:
     found by the floor's bounce rays alone (Emission Sampling None) it lights the floor as in Cycles (the footprint
     the ray carries there: measured 2.526 against 2.530, 2.528 in Cycles 5.2); where light samples land on it Cycles
     has no footprint and sees no wire (Cycles 5.0: 1.263 with MIS; 5.2: 2.526), which Primer does not model: the
     export warns, once."""
-    result = run_bpy(WIRES_LIGHTING.format(samples=64), str(tmp_path))
+    result = results[0]["lighting"]
     means = result["means"]
     print(means)
     assert means["PRIMER NONE"] == pytest.approx(means["CYCLES NONE"], rel=0.01), means
@@ -402,17 +403,32 @@ report(found=found, warnings=warnings)
 """
 
 
-def test_window_coordinates_under_panoramic_cameras_are_cycles(tmp_path):
+def test_window_coordinates_under_panoramic_cameras_are_cycles(results):
     """A box all round a panoramic camera shows its Window coordinates: where each point appears on the panorama, (u,
     v) of its type as Cycles maps a direction (direction_to_panorama), in Primer as in Cycles, for every type (the
     polynomial fisheye's radius found by Newton's steps as Cycles' are): within the change of (u, v) across a pixel's
     samples (measured: a mean difference of at most 2e-3 and a median of at most 4e-4 at 16 samples, of values 0 to
     1)."""
-    kinds = ["EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE", "MIRRORBALL", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID",
-             "CENTRAL_CYLINDRICAL", "FISHEYE_LENS_POLYNOMIAL"]
-    result = run_bpy(PANORAMA_WINDOWS.format(kinds=kinds, samples=16), str(tmp_path))
+    result = results[0]["panorama"]
     print(result["found"])
     assert result["warnings"] == []
     for kind, (mean, median, level) in result["found"].items():
         assert level > 0.1, kind
         assert mean < 5e-3 and median < 1e-3, (kind, mean, median)
+
+
+PANORAMA_KINDS = ["EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE", "MIRRORBALL", "FISHEYE_EQUIDISTANT",
+                  "FISHEYE_EQUISOLID", "CENTRAL_CYLINDRICAL", "FISHEYE_LENS_POLYNOMIAL"]
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """The five scripts' reports, from one Blender process (tests/one_process.py; one start for the file's tests, not
+    five): ({"inputs", "perspective", "mirrored", "lighting", "panorama": its report}, the folder holding each
+    script's folder of files)."""
+    folder = tmp_path_factory.mktemp("inputs")
+    sources = {"inputs": SCRIPT.format(pixels=PIXELS, rows=ROWS, samples=SAMPLES),
+               "perspective": PERSPECTIVE_WIRES.format(samples=16), "mirrored": MIRRORED_WIRES.format(samples=16),
+               "lighting": WIRES_LIGHTING.format(samples=64),
+               "panorama": PANORAMA_WINDOWS.format(kinds=PANORAMA_KINDS, samples=16)}
+    return run_bpy(RUNNER.format(sources=sources), str(folder))["results"], folder

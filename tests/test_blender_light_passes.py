@@ -48,7 +48,8 @@ SCENES = ("materials_glass", "materials_principled")
 
 def render_three(name: str, folder) -> tuple:
     """Sample scene `name` at 64 x 48 with the light, colour, Emission and Environment passes on: (Primer's, Cycles'
-    at BASELINE and at REFERENCE samples, Primer's at another seed) passes, each name -> (channels, (H, W, c) float32)."""
+    at BASELINE and at REFERENCE samples, Primer's at another seed) passes, each name -> (channels, (H, W, c) float32).
+    Cycles' two are the committed references (tests/references/<bpy version>/scripted/) while their keys match."""
     bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_scenes", name + ".blend"))
     scene = bpy.context.scene
     layer = scene.view_layers[0]
@@ -66,7 +67,8 @@ def render_three(name: str, folder) -> tuple:
     for samples in (BASELINE, REFERENCE):
         configure_cycles_reference(scene, samples)
         scene.cycles.seed = samples
-        out.append(render_image(scene, str(folder / f"{name}_cycles{samples}.exr"), multilayer=True))
+        out.append(render_image(scene, str(folder / f"{name}_cycles{samples}.exr"), multilayer=True,
+                                reference=f"{name}_cycles{samples}"))
     return (*out, again)
 
 

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from blender_env import ROOT, run_bpy
+from one_process import RUNNER
 
 pytestmark = pytest.mark.blender
 
@@ -85,16 +86,16 @@ report(nodes=nodes, warnings=[str(w) for w in warnings])
 
 
 @pytest.mark.slow
-def test_a_ray_portal_renders_as_in_cycles(tmp_path):
+def test_a_ray_portal_renders_as_in_cycles(results):
     """The nodes read as Diffuse + Ray Portal and one Ray Portal, with no warning; Primer's image against Cycles':
     block relative MSE below 2e-3 (measured: see docs/blender.md) and mean within 3%."""
     sys.path.insert(0, os.path.join(ROOT, "tools"))
     import node_table
-    report = run_bpy(SCRIPT.format(primer_samples=PRIMER_SAMPLES,
-                                   cycles_samples=CYCLES_SAMPLES), str(tmp_path))
+    report, folder = results
+    report = report["portal"]
     assert report["warnings"] == []
     assert report["nodes"] == ["DIFFUSE", "RAY_PORTAL", "RAY_PORTAL"]
-    primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")
+    primer, cycles = np.load(folder / "portal" / "primer.npy"), np.load(folder / "portal" / "cycles.npy")
     relmse, ratio = node_table.block_measure(primer, cycles)
     print(f"relMSE {relmse:.3g}, mean ratio {ratio:.4f}, Cycles mean {cycles.mean(axis=(0, 1))}")
     assert relmse < 2e-3 and abs(ratio - 1.0) < 0.03
@@ -145,11 +146,11 @@ report(means=means, version=list(bpy.app.version))
 """
 
 
-def test_shadow_rays_stop_at_a_ray_portal_but_not_at_one_mixed_with_a_transparent_bsdf_as_in_cycles(tmp_path):
+def test_shadow_rays_stop_at_a_ray_portal_but_not_at_one_mixed_with_a_transparent_bsdf_as_in_cycles(results):
     """A floor (0.6) under a sun of 3 at 30 degrees, seen through a pane: a Ray Portal pane lets the camera through and
     stops the sun (0, in Primer and Cycles); Mix(Fac 0.5, Transparent, Ray Portal) lets the sun through whole, in
     both (Cycles' shadow rays set up no portal closure and count its weight as transparent): 0.6 x 3 cos 30 / pi."""
-    report = run_bpy(SHADOWS.format(), str(tmp_path))
+    report = results[0]["shadows"]
     means, bpy_version = report["means"], tuple(report["version"])
     lit = 0.6 * 3.0 * np.cos(np.radians(30.0)) / np.pi
     for engine in ("PRIMER", "CYCLES"):
@@ -233,13 +234,24 @@ report(warnings=[str(w) for w in warnings], pixels=pixels)
 """
 
 
-def test_the_light_path_nodes_portal_depth_counts_ray_portal_bounces_as_in_cycles(tmp_path):
+def test_the_light_path_nodes_portal_depth_counts_ray_portal_bounces_as_in_cycles(results):
     """Read with no warning; every pixel in Primer and in Cycles is the closed form: the floor's emission 2 x 1 + 1
     (one portal, which is one transparent bounce too) plus its diffuse 0.5 / pi under the sun of 3 that the screen
     lets 0.5 through for shadow rays of Portal Depth 1: 3 + 0.75 / pi."""
-    report = run_bpy(PORTAL_DEPTH.format(), str(tmp_path))
+    report = results[0]["depth"]
     assert report["warnings"] == [], report["warnings"]
     expected = 3.0 + 0.75 / np.pi
     for engine, (mean, low, high) in report["pixels"].items():
         print(engine, mean, low, high)
         assert low == pytest.approx(expected, rel=1e-5) and high == pytest.approx(expected, rel=1e-5), report["pixels"]
+
+
+# The three scripts above run one after the other in one Blender process (one start for the file's tests).
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """The three scripts' reports, from one Blender process: ({"portal": ..., "shadows": ..., "depth": ...}, the folder
+    holding each script's folder of files)."""
+    folder = tmp_path_factory.mktemp("ray_portal")
+    sources = {"portal": SCRIPT.format(primer_samples=PRIMER_SAMPLES, cycles_samples=CYCLES_SAMPLES),
+               "shadows": SHADOWS.format(), "depth": PORTAL_DEPTH.format()}
+    return run_bpy(RUNNER.format(sources=sources), str(folder))["results"], folder

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from blender_env import ROOT, run_bpy
+from one_process import RUNNER
 
 pytestmark = pytest.mark.blender
 
@@ -154,8 +155,8 @@ report(warnings=exported.warnings,
 """
 
 
-def test_images_from_files_and_packed_bytes_groups_and_warnings(tmp_path):
-    result = run_bpy(IMAGES.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+def test_images_from_files_and_packed_bytes_groups_and_warnings(results):
+    result = results["images"]
     # Both images: bottom row first (blue, white), then red, green; the file's Non-Color, the packed one sRGB.
     expected = [[[0, 0, 1], [1, 1, 1]], [[1, 0, 0], [0, 1, 0]]]
     assert len(result["images"]) == 2
@@ -223,8 +224,8 @@ report(randoms=randoms, cycles=cycles, names=[i.name for i in exported.scene.ins
 """
 
 
-def test_object_random_is_cycles_per_object_and_per_instance(tmp_path):
-    result = run_bpy(RANDOM.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+def test_object_random_is_cycles_per_object_and_per_instance(results):
+    result = results["random"]
     assert len(result["randoms"]) == 6
     assert len(set(result["randoms"])) == 6                # different for every object and instance
     np.testing.assert_allclose(result["randoms"], result["cycles"], rtol=1e-5, atol=1e-6)
@@ -297,12 +298,12 @@ report(warnings=exported.warnings, images=images, finite=bool(np.isfinite(result
 """
 
 
-def test_images_keep_their_stored_precision_and_bad_texels_are_read_as_zero(tmp_path):
+def test_images_keep_their_stored_precision_and_bad_texels_are_read_as_zero(results):
     """An 8-bit 16384-texel-wide image stays bytes (a quarter of floats' memory), a 16-bit grey one 16-bit and
     one channel, read as value / maximum; NaN and infinite texels of a float image (a texture and the world's
     HDRI) are read as 0 with a warning, and the render has no NaN pixel; the HDRI's own Texture Mapping is applied
     (the world baked from its node graph), not warned about."""
-    result = run_bpy(STORED.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    result = results["stored"]
     wide, grey, broken = (result["images"][f"Image {i}"] for i in range(3))
     assert wide[:2] == ["uint8", [4, 16384, 3]]
     np.testing.assert_allclose(np.array(wide[2])[:, 0], [0.0, 8192 * 255 // 16383 / 255.0, 1.0], atol=1e-9)
@@ -363,9 +364,9 @@ report(warnings=exported.warnings + list(result.stats.warnings),
 """
 
 
-def test_a_texture_without_uvs_a_zero_area_emitter_of_1e9_and_a_negative_world_render_finite(tmp_path):
+def test_a_texture_without_uvs_a_zero_area_emitter_of_1e9_and_a_negative_world_render_finite(results):
     """Bad input of issue 20: each is reported, and the render has no NaN, no infinite and no negative pixel."""
-    result = run_bpy(ODD.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    result = results["odd"]
     warnings = "\n".join(result["warnings"])
     assert "has no UV map" in warnings and "reads (0, 0)" in warnings
     assert "world's Background is negative (-0.1" in warnings
@@ -393,3 +394,13 @@ def test_two_normal_map_nodes_reading_one_map_count_as_the_same_normal():
     assert same_graph(normal_map(image, 1.0), normal_map(image, 1.0))
     assert not same_graph(normal_map(image, 1.0), normal_map(image, 0.5))
     assert not same_graph(normal_map(image, 1.0), normal_map(textures.Image(np.zeros((2, 2, 3), np.uint8)), 1.0))
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """The four scripts' reports, from one Blender process (tests/one_process.py; one start for the file's tests, not
+    four): {"images", "random", "stored", "odd": its report}."""
+    tools = os.path.join(ROOT, "tools")
+    sources = {"images": IMAGES.format(tools=tools), "random": RANDOM.format(tools=tools),
+               "stored": STORED.format(tools=tools), "odd": ODD.format(tools=tools)}
+    return run_bpy(RUNNER.format(sources=sources), str(tmp_path_factory.mktemp("textures")))["results"]
