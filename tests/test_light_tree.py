@@ -305,3 +305,55 @@ def test_the_triangles_of_an_emissive_quad_share_its_stratified_samples():
     coarse, fine = quad_irradiance_error(16), quad_irradiance_error(256)
     assert coarse < 0.05
     assert coarse / fine > 10.0, (coarse, fine)
+
+
+def turned_quad_lamp(sides: int) -> MeshEmitters:
+    """A 1.3 x 1.05 quad lamp 2.7 above the origin, facing down, turned by 1.5e-7 rad about x and y (as Blender's
+    rotations leave a Cornell box's lamp), so that its two triangles' boxes and powers differ in the last bits."""
+    a = 1.5e-7
+    turn = np.array([[1.0, 0.0, a], [0.0, 1.0, -a], [-a, a, 1.0]])
+    square = np.array([[-0.65, -0.5, 2.7], [0.65, -0.5, 2.7], [0.65, 0.55, 2.7], [-0.65, 0.55, 2.7]]) @ turn.T
+    quad = square[np.array([[0, 2, 1], [0, 3, 2]])]                    # (clockwise from above: facing down)
+    return MeshEmitters.of(quad, np.full((2, 3), 17.0), np.full(2, sides, np.int32), np.arange(2))
+
+
+@pytest.mark.parametrize("sides", [1, 3])
+def test_a_quad_lamps_two_triangles_are_picked_half_and_half_everywhere(sides):
+    """The two triangles of a quad lamp are twins to the tree (light_tree.twins): each is picked with probability
+    exactly 1/2 from every point, by both kernels, in the walk and in the MIS pdf, and the pick probabilities still
+    sum to one (the estimate stays unbiased); triangles that differ are not twins."""
+    from core.lights.emitters import compiled_pick, compiled_pick_probability
+    from core.lights.light_tree import twins
+    emitters = turned_quad_lamp(sides)
+    nodes = emitters.tree.nodes
+    assert len(nodes) == 3 and twins(nodes[1:2], nodes[2:3]).all()
+    assert not (nodes[1, :6] == nodes[2, :6]).all() or nodes[1, 11] != nodes[2, 11]     # (not equal bit for bit)
+    P, N = random_receivers(2000, 31)
+    probabilities = all_pick_probabilities(emitters, P, N)
+    assert (probabilities == 0.5).all()
+    u = np.random.default_rng(32).random(2000)
+    index, probability, _ = emitters.tree.pick(P, N, u)
+    left_triangle = -1 - int(nodes[int(nodes[0, LEFT]), LEFT])
+    assert ((index == left_triangle) == (u < 0.5)).all() and (probability == 0.5).all()
+    if library.available():
+        found, found_probability = compiled_pick(emitters, P, N, u)
+        assert (found == index).all() and (found_probability == 0.5).all()
+        assert (compiled_pick_probability(emitters, P, N, index) == 0.5).all()
+    other = scattered_emitters(2, 33).tree.nodes
+    assert not twins(other[1:2], other[2:3]).any()
+
+
+def test_a_turned_quad_lamps_irradiance_is_lamberts():
+    """Picked half and half, the turned quad lamp's estimate of the irradiance at floor points (each triangle's
+    solid-angle sample, 1024 stratified points) converges to Lambert's polygon formula: the estimator's mean."""
+    from core.sampling import sobol as sampling
+    emitters = turned_quad_lamp(1)
+    rng = np.random.default_rng(34)
+    receivers, samples = 24, 1024
+    P = np.column_stack([rng.uniform(-2.0, 2.0, (receivers, 2)), np.zeros(receivers)])
+    N = np.tile([0.0, 0.0, 1.0], (receivers, 1))
+    pixel, number = np.repeat(np.arange(receivers), samples), np.tile(np.arange(samples), receivers)
+    s = emitters.sample(P[pixel], sampling.sample_2d(0, pixel, number, dimension=16), N=N[pixel])
+    estimate = (s.strength * np.maximum(s.L[:, 2], 0.0)).reshape(receivers, samples).mean(axis=1)
+    exact = np.array([lambert_irradiance(p, n, emitters.corners).sum() for p, n in zip(P, N)])
+    np.testing.assert_allclose(estimate, exact, rtol=2e-3)

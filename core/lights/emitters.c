@@ -33,6 +33,8 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 #define TREE_CLAMP 0.25
 /* light_tree.HORIZON: how far above P's tangent plane a box must lie, a share of its distance and size. */
 #define TREE_HORIZON 1e-6
+/* light_tree.TWIN_TOLERANCE: how alike two children must be to be walked as twins (light_tree_twins). */
+#define TREE_TWIN_TOLERANCE 1e-6
 
 /* light_tree.importance for one node row seen from P with normal N (zero: unknown): the upper and lower bounds
  * of what it sends P, energy x the cosine bounds at the receiver and the emitter / distance^2 (Cycles'
@@ -122,6 +124,23 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
     *lower = node[TREE_ENERGY] / (far * far) * (cos_incidence_least * cos_outgoing_least);
 }
 
+/* light_tree.twins for one inner node's children rows: whether they are alike to within light_tree.TWIN_TOLERANCE in
+ * all that their importance reads (box, cone axis and angles, energy; both leaves or both inner nodes), as the two
+ * triangles of a quad lamp are. Then the walk gives each 1/2 wherever P is and skips both importances: what they
+ * would have given, to within that tolerance, and unbiased all the same (the same 1/2 in pick and pick_probability). */
+INLINE int light_tree_twins(const double *left, const double *right)
+{
+    double size = 0.0;
+    for (int c = 0; c < 3; c++) size = size + (left[3 + c] - left[c]) + (right[3 + c] - right[c]);
+    double box = TREE_TWIN_TOLERANCE * size;
+    double energy = TREE_TWIN_TOLERANCE * (left[TREE_ENERGY] + right[TREE_ENERGY]);
+    int alike = ((left[TREE_RIGHT] < 0.0) == (right[TREE_RIGHT] < 0.0))
+                & (fabs(left[TREE_ENERGY] - right[TREE_ENERGY]) <= energy);
+    for (int f = 0; f < 6; f++) alike &= fabs(left[f] - right[f]) <= box;
+    for (int f = TREE_AXIS; f < TREE_ENERGY; f++) alike &= fabs(left[f] - right[f]) <= TREE_TWIN_TOLERANCE;
+    return alike;
+}
+
 /* light_tree.py's rules (EmitterTables.rule). */
 #define TREE_CYCLES 0
 #define TREE_UPPER 1
@@ -135,6 +154,7 @@ INLINE double light_tree_branch_left(const EmitterTables *e, const double *node,
     const double *left = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
     const double *right = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
     if (e->rule == TREE_POWER) return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
+    if (light_tree_twins(left, right)) return 0.5;
     double upper_left, lower_left = 0.0, upper_right, lower_right = 0.0;
     int cycles = e->rule == TREE_CYCLES;
     light_tree_importance(left, P, N, &upper_left, cycles ? &lower_left : NULL);
