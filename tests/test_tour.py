@@ -1335,8 +1335,9 @@ def test_a_white_random_walk_loses_only_the_walks_its_step_cap_cuts_short(primer
     so a slab wider and deeper than the walks would send back all that enters: E / pi, a white Lambert's. But a walk
     in a half-space can wander very long, and Cycles stops each at 256 steps (BSSRDF_MAX_BOUNCES), losing what has
     not come out by then: Primer and Cycles both show 0.90 E / pi (within 1 % of each other), the same at every radius
-    (a half-space has no length of its own); with the cap raised to 4096 (the Python reference) the slab comes within
-    4 % of E / pi, and a grey medium (0.5) is darker. The tour's picture: the stage's sphere as red wax."""
+    (a half-space has no length of its own). A walk's chance of still being inside after n steps falls as 1 / sqrt(n),
+    so with the cap raised four times, to 1024 (the Python reference), the slab loses about half as much (measured
+    0.061 of E / pi against 0.103; less than 0.8 of it asserted), and a grey medium (0.5) is darker. The tour's picture: the stage's sphere as red wax."""
     from blender_env import render_pixels
     lambert = 3.0 / math.pi
     means = {}
@@ -1350,16 +1351,16 @@ def test_a_white_random_walk_loses_only_the_walks_its_step_cap_cuts_short(primer
     walk = sys.modules[f"{primer.__name__}.core.integrators.subsurface"]
     cap = walk.MAX_STEPS
     try:
-        walk.MAX_STEPS = 4096
+        walk.MAX_STEPS = 4 * cap
         longer = render_pixels(scene, "PRIMER", str(tmp_path / "long.exr"), 16)[..., :3].mean()
     finally:
         walk.MAX_STEPS = cap
     grey = render_pixels(wax_slab((0.5, 0.5, 0.5), 0.05), "PRIMER", str(tmp_path / "g.exr"), 16)[..., :3].mean()
     print(f"white walk / E/pi: radius 0.05 {means[0.05] / lambert:.4f}, 0.2 {means[0.2] / lambert:.4f}, Cycles "
-          f"{cycles / lambert:.4f}, cap 4096 {longer / lambert:.4f}; grey {grey / lambert:.4f}")
+          f"{cycles / lambert:.4f}, cap {4 * cap} {longer / lambert:.4f}; grey {grey / lambert:.4f}")
     assert means[0.05] == pytest.approx(cycles, rel=0.01) and means[0.2] == pytest.approx(cycles, rel=0.01)
     assert 0.85 < cycles / lambert < 0.95
-    assert means[0.05] < longer and longer / lambert > 0.96
+    assert 1.0 - longer / lambert < 0.8 * (1.0 - means[0.05] / lambert)
     assert grey < 0.7 * means[0.05]
     scene = open_scene("light_point", samples=16)
     scene.objects["Sphere"].data.materials[0] = subsurface_material("Wax", (0.9, 0.25, 0.15), 0.3)
