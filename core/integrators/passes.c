@@ -90,6 +90,22 @@ INLINE void average_normal(const ShaderResult *sd, double *out)
     for (int c = 0; c < 3; c++) out[c] = length > 0.0 ? total[c] / length : sd->N[c];
 }
 
+/* surface.hit_attributes for `count` floats from `offset` of the hit on `prim` of geometry `geometry` (0: the
+ * copied triangles, m: instanced mesh m - 1) at barycentrics u, v, into out (count). */
+INLINE void attributes_at(const GeometryTables *g, int64_t geometry, int64_t prim, double u, double v, int offset,
+                          int count, double *out)
+{
+    int64_t row = 0;
+    if (geometry <= 0) row = g->attribute_row != NULL ? (int64_t)g->attribute_row[prim] : 0;
+    else if (g->meshes[geometry - 1].attribute_row != NULL) row = (int64_t)g->meshes[geometry - 1].attribute_row[prim];
+    int64_t width = (int64_t)g->attribute_width;
+    const float *corner = g->attributes + 3 * width * row;
+    double w = 1.0 - u - v;
+    for (int c = 0; c < count; c++)
+        out[c] = (w * (double)corner[offset + c] + u * (double)corner[width + offset + c])
+                 + v * (double)corner[2 * width + offset + c];
+}
+
 /* passes.uv_at for one hit (Embree's geometry, prim at barycentrics u, v): (u, v, 1) of the UV map at float
  * `offset` of the attributes ((0, 0, 1) without one). */
 INLINE void uv_at(const GeometryTables *g, int64_t geometry, int64_t prim, double u, double v, int offset, double *out)
@@ -97,31 +113,7 @@ INLINE void uv_at(const GeometryTables *g, int64_t geometry, int64_t prim, doubl
     out[0] = out[1] = 0.0;
     out[2] = 1.0;
     if (offset < 0 || g->attributes == NULL) return;
-    int64_t row = 0;
-    if (geometry <= 0) row = g->attribute_row != NULL ? (int64_t)g->attribute_row[prim] : 0;
-    else if (g->meshes[geometry - 1].attribute_row != NULL) row = (int64_t)g->meshes[geometry - 1].attribute_row[prim];
-    int64_t width = (int64_t)g->attribute_width;
-    const float *corner = g->attributes + 3 * width * row;
-    double w = 1.0 - u - v;
-    for (int c = 0; c < 2; c++)
-        out[c] = (w * (double)corner[offset + c] + u * (double)corner[width + offset + c])
-                 + v * (double)corner[2 * width + offset + c];
-}
-
-/* surface.hit_attributes for three floats from `offset` of the hit on `prim` of geometry `geometry` (0: the copied
- * triangles, m: instanced mesh m - 1) at barycentrics u, v, into out (3). */
-INLINE void attribute3_at(const GeometryTables *g, int64_t geometry, int64_t prim, double u, double v, int offset,
-                          double *out)
-{
-    int64_t row = 0;
-    if (geometry <= 0) row = g->attribute_row != NULL ? (int64_t)g->attribute_row[prim] : 0;
-    else if (g->meshes[geometry - 1].attribute_row != NULL) row = (int64_t)g->meshes[geometry - 1].attribute_row[prim];
-    int64_t width = (int64_t)g->attribute_width;
-    const float *corner = g->attributes + 3 * width * row;
-    double w = 1.0 - u - v;
-    for (int c = 0; c < 3; c++)
-        out[c] = (w * (double)corner[offset + c] + u * (double)corner[width + offset + c])
-                 + v * (double)corner[2 * width + offset + c];
+    attributes_at(g, geometry, prim, u, v, offset, 2, out);
 }
 
 /* passes.vector_at for one hit of instance `object` at the world point P (on `prim` of geometry `geometry` at
@@ -142,8 +134,8 @@ INLINE void vector_at(const PassTables *pt, const GeometryTables *g, int64_t geo
         double Q[3], h[4], local[3];
         const double *from = P;
         if (move != NULL && deformed) {
-            attribute3_at(g, geometry, prim, u, v, k == 0 ? (int)pt->vector_offset_before : (int)pt->vector_offset_after,
-                          local);
+            attributes_at(g, geometry, prim, u, v, k == 0 ? (int)pt->vector_offset_before : (int)pt->vector_offset_after,
+                          3, local);
             move = pt->vector_objects + 12 * (2 * row + k / 2);
             from = local;
         }
