@@ -368,6 +368,19 @@ def test_the_shutter_time_view_shows_each_rows_time_with_a_rolling_shutter(prime
     np.testing.assert_allclose(picture, expected, atol=1e-6)
 
 
+def passes_of_both(scene, tmp_path, reference: str):
+    """Render `scene`'s passes with Primer, then Cycles (the Cycles reference `reference`), 16 samples each: yield
+    (engine, {pass: (channels, pixels)}) as each finishes."""
+    for engine in ("PRIMER", "CYCLES"):
+        scene.render.engine = engine
+        if engine == "CYCLES":
+            configure_cycles_reference(scene, 16)
+        else:
+            scene.primer.samples = 16
+        yield engine, render_image(scene, str(tmp_path / f"{engine}_{reference}.exr"), multilayer=True,
+                                   reference=reference)
+
+
 def test_the_vector_pass_holds_each_pixels_screen_motion_as_in_cycles(primer, tmp_path):
     """View Layer > Passes > Vector without motion blur (Cycles' motion pass): a square sliding 0.8 a frame along y
     over the checker floor, seen by the camera that slides, turns and zooms between frames 0 and 2 (rendered at 1).
@@ -387,14 +400,7 @@ def test_the_vector_pass_holds_each_pixels_screen_motion_as_in_cycles(primer, tm
     vectors = {}
     for blur in (False, True):
         scene.render.use_motion_blur = blur
-        for engine in ("PRIMER", "CYCLES"):
-            scene.render.engine = engine
-            if engine == "CYCLES":
-                configure_cycles_reference(scene, 16)
-            else:
-                scene.primer.samples = 16
-            passes = render_image(scene, str(tmp_path / f"{engine}_{blur}.exr"), multilayer=True,
-                                  reference=f"vector_{blur}")
+        for engine, passes in passes_of_both(scene, tmp_path, f"vector_{blur}"):
             channels, vectors[engine, blur] = passes["Vector"]
             assert channels == ["X", "Y", "Z", "W"], engine
     for engine in ("PRIMER", "CYCLES"):
@@ -426,13 +432,7 @@ def test_the_vector_pass_of_a_deforming_sheet_follows_its_vertices_as_in_cycles(
     for number, name in enumerate(("Plane.001", "Plane"), start=1):     # (the sheet 1, the ground 2)
         bpy.data.objects[name].pass_index = number
     vectors = {}
-    for engine in ("PRIMER", "CYCLES"):
-        scene.render.engine = engine
-        if engine == "CYCLES":
-            configure_cycles_reference(scene, 16)
-        else:
-            scene.primer.samples = 16
-        passes = render_image(scene, str(tmp_path / f"{engine}.exr"), multilayer=True, reference="vector_deform")
+    for engine, passes in passes_of_both(scene, tmp_path, "vector_deform"):
         vectors[engine] = passes["Vector"][1]
         index = passes["Object Index"][1][..., 0]
         if engine == "PRIMER":
