@@ -459,13 +459,13 @@ def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O:
         if stretch is not None:
             seen = seen * stretch.rows(missed).transmittance(np.full(len(missed), np.inf))
         dp.add("environment", owner[missed], throughput[missed] * seen)
+    open_ = missed[~dp.done[owner[missed]]]            # (escaping before their opaque-enough vertex)
     program = ctx.extra.get("world_aovs")
-    if program is not None and dp.layout.aovs and len(missed):
+    if program is not None and dp.layout.aovs and len(open_):
         # (Cycles' svm_node_aov_check: a camera path before its opaque-enough vertex; not weighed by the throughput)
-        open_ = missed[~dp.done[owner[missed]]]
         dp.values[owner[open_], dp.layout.aov_base:dp.layout.aov_base + dp.layout.aov_channels] += \
             world_graph.aovs_along(program, D[open_], dp.layout.aov_channels)
-    gone = owner[missed][~dp.done[owner[missed]] & dp.first[owner[missed]]]
+    gone = owner[open_][dp.first[owner[open_]]]
     for name in ("position", "object_index", "material_index", "z_depth"):
         dp.set(name, gone, 0.0)
 
@@ -479,7 +479,7 @@ class VectorTables(NamedTuple):
     vertices at the neighbouring frames as the attributes VECTOR_ATTRIBUTES (with_vector_deformation), whose
     first floats sit at offsets (before, after: two ints; -1: the geometry has none); objects (n, 2, 3, 4) float64
     each instance's object-to-world transform at the frame before and after (M_before, M_after: M where still),
-    which carries those object-space positions into the world."""
+    which carries those object-space positions into the world (no rows where the geometry has none)."""
 
     before: np.ndarray
     after: np.ndarray
@@ -542,23 +542,24 @@ def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, l
     raster = np.stack([camera_.world_to_raster(camera, width, height, tuple(pixel_aspect))
                        for camera in (cameras[0], scene.camera, cameras[1])])
     n = len(scene.instances)
+    layout = layout or {}
+    offsets = tuple(int(layout[name][0]) if name in layout else -1 for name in VECTOR_ATTRIBUTES)
+    mapped = min(offsets) >= 0                          # (some mesh carries its vertices then: with_vector_deformation)
     moves = [np.tile(np.eye(4)[:3], (n, 1, 1)) for _ in range(2)]
+    deformed = np.zeros(n, np.int32)
+    objects = np.zeros((n if mapped else 0, 2, 3, 4))
     for i, instance in enumerate(scene.instances):
         if instance.vector_motion:
             inverse = np.linalg.inv(np.asarray(instance.matrix, np.float64))
             for k in range(2):
                 moves[k][i] = (np.asarray(instance.vector_motion[k], np.float64) @ inverse)[:3]
-    layout = layout or {}
-    offsets = tuple(int(layout[name][0]) if name in layout else -1 for name in VECTOR_ATTRIBUTES)
-    deformed = np.zeros(n, np.int32)
-    objects = np.zeros((n, 2, 3, 4))
-    for i, instance in enumerate(scene.instances):
-        mesh = scene.meshes[instance.mesh] if instance.mesh < len(scene.meshes) else None
-        attributes = getattr(mesh, "attributes", None) or {}
-        deformed[i] = min(offsets) >= 0 and all(name in attributes for name in VECTOR_ATTRIBUTES)
-        for k in range(2):
-            objects[i, k] = np.asarray(instance.vector_motion[k] if instance.vector_motion else instance.matrix,
-                                       np.float64)[:3]
+        if mapped:
+            mesh = scene.meshes[instance.mesh] if instance.mesh < len(scene.meshes) else None
+            attributes = getattr(mesh, "attributes", None) or {}
+            deformed[i] = all(name in attributes for name in VECTOR_ATTRIBUTES)
+            for k in range(2):
+                objects[i, k] = np.asarray(instance.vector_motion[k] if instance.vector_motion else instance.matrix,
+                                           np.float64)[:3]
     return VectorTables(moves[0], moves[1], raster, 0, deformed, objects, offsets)
 
 

@@ -51,13 +51,7 @@ INLINE void world_graph_aovs(const WorldGraph *g, const double *D, const LightPa
     sp.aov = into;                                      /* (the ops after AOV_START run) */
     run_program(g->graph, 0, &sp, NULL, reg);
     const double *info = g->graph->programs;            /* (its one program) */
-    const double *outputs = g->graph->outputs + 5 * (int64_t)info[5];
-    for (int64_t o = 0; o < (int64_t)info[6]; o++) {
-        const double *out = outputs + 5 * o;
-        if ((int)out[0] != OUT_AOV) continue;
-        for (int j = 0; j < (int)out[3]; j++) into[(int64_t)out[1] + j] += reg[(int64_t)out[4] + j];
-        if ((int)out[3] == 3) into[(int64_t)out[1] + 3] += 1.0;
-    }
+    add_aovs(g->graph->outputs + 5 * (int64_t)info[5], (int64_t)info[6], reg, into);
 }
 
 /* World.radiance_seen: what a ray along the unit D that escapes finds, with its path (NULL: none known, the bake): the

@@ -813,6 +813,19 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
     add_transparent(sd);
 }
 
+/* graph.aov_values: a program's AOV Output rows (`outputs`, `count` of them, OUT_AOV ones written) read from its
+ * registers `reg`, added into the shader AOVs `into` (a COLOR AOV its Color and 1 into its alpha, a VALUE AOV its
+ * Value). */
+INLINE void add_aovs(const double *outputs, int64_t count, const double *reg, double *into)
+{
+    for (int64_t o = 0; o < count; o++) {
+        const double *out = outputs + 5 * o;
+        if ((int)out[0] != OUT_AOV) continue;
+        for (int j = 0; j < (int)out[3]; j++) into[(int64_t)out[1] + j] += reg[(int64_t)out[4] + j];
+        if ((int)out[3] == 3) into[(int64_t)out[1] + 3] += 1.0;
+    }
+}
+
 /* NodeShader.shade with a program: the node graph runs at the hit (graph.c), its outputs replace the
  * nodes' linked inputs, multiply their weights and give them their own normals (graph.apply_outputs);
  * then every node sets up its closures with its normal; sd->N stays the hit's (Cycles' sd->N: a Set Normal output
@@ -840,14 +853,8 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
     sd->n = 0;
     sd->portal[0] = sd->portal[1] = sd->portal[2] = 0.0;
     for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
-    /* The AOV Output nodes into the hit's shader AOVs, where it writes them (graph.aov_values). */
-    for (int64_t o = 0; o < (int64_t)info[6] && sp->aov != NULL && emits == NULL; o++) {
-        const double *out = outputs + 5 * o;
-        if ((int)out[0] != OUT_AOV) continue;
-        double *into = sp->aov + (int64_t)out[1];
-        for (int j = 0; j < (int)out[3]; j++) into[j] += reg[(int64_t)out[4] + j];
-        if ((int)out[3] == 3) into[3] += 1.0;
-    }
+    /* The AOV Output nodes into the hit's shader AOVs, where it writes them. */
+    if (sp->aov != NULL && emits == NULL) add_aovs(outputs, (int64_t)info[6], reg, sp->aov);
     for (int k = 0; k < n; k++) {
         int own = 0;
         if (emits != NULL && emits[1 + k] == 0.0) continue;
