@@ -132,9 +132,7 @@ def _object_state(depsgraph) -> dict:
             continue
         positions = None
         mesh = obj.data if obj.type == "MESH" and parent is None else None
-        deforms = bool(getattr(getattr(obj, "cycles", None), "use_deform_motion", True))
-        if (mesh is not None and deforms and (len(obj.modifiers) or getattr(mesh, "shape_keys", None) is not None)
-                and len(mesh.vertices) <= DEFORM_CHECK_VERTICES):
+        if mesh is not None and may_deform(obj) and len(mesh.vertices) <= DEFORM_CHECK_VERTICES:
             positions = np.empty(3 * len(mesh.vertices), np.float32)
             mesh.vertices.foreach_get("co", positions)
         normals = None
@@ -144,6 +142,13 @@ def _object_state(depsgraph) -> dict:
         state[placement_key(instance)] = (np.array(instance.matrix_world, np.float64), positions, motion_steps(obj),
                                           normals)
     return state
+
+
+def may_deform(obj) -> bool:
+    """Whether the mesh object `obj` may deform between times: its Deformation motion on (Cycles' use_deform_motion)
+    and modifiers or shape keys that could move its vertices."""
+    return (bool(getattr(getattr(obj, "cycles", None), "use_deform_motion", True))
+            and bool(len(obj.modifiers) or getattr(obj.data, "shape_keys", None) is not None))
 
 
 def named(names) -> str:
@@ -285,10 +290,7 @@ def unread_deforming(depsgraph) -> set:
         obj = instance.object
         if instance.is_instance or obj.type != "MESH" or motion_steps(obj) == 0:
             continue
-        mesh = obj.data
-        if (bool(getattr(getattr(obj, "cycles", None), "use_deform_motion", True))
-                and (len(obj.modifiers) or getattr(mesh, "shape_keys", None) is not None)
-                and len(mesh.vertices) > DEFORM_CHECK_VERTICES):
+        if may_deform(obj) and len(obj.data.vertices) > DEFORM_CHECK_VERTICES:
             names.add(obj.name)
     return names
 
