@@ -376,9 +376,9 @@ COVERAGE = {
         NO_EFFECT: {"height intensity use_mist": "EEVEE's mist: Cycles' Mist pass reads only Start, Depth and Falloff"},
     },
     "CyclesWorldSettings": {
-        READ: {"max_bounces": "export.world_light_settings"},
+        READ: {"max_bounces sample_map_resolution sampling_method": "export.world_light_settings"},
         REPORTED: {"is_caustics_light use_shadows*": "unmodelled.world_notes"},
-        NO_EFFECT: {"sample_map_resolution sampling_method volume_sampling": NOISE,
+        NO_EFFECT: {"volume_sampling": NOISE,
                     "homogeneous_volume* volume_interpolation volume_step_size": HETEROGENEOUS},
     },
     "CyclesVisibilitySettings": {

@@ -22,6 +22,7 @@ from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
 from ..core.geometry import points as points_
 from ..core.lights import World, world_graph
+from ..core.lights import world as lights_world
 from ..core.lights import lamp_graph as lamp_graph_
 from ..core.materials import ies as ies_
 from ..core.lights.ies import IESLamp
@@ -1164,12 +1165,63 @@ def _kernels(scene) -> str:
 
 
 def world_light_settings(world, core: World) -> World:
-    """The core world with the Blender world's Cycles Max Bounces read into it. (Its Shadows, Blender 5.2's, are
-    noted instead: Primer's image world without shadow rays measured 4 % brighter than Cycles 5.2's, unexplained.)"""
+    """The core world with the Blender world's Cycles Max Bounces and Sampling (its importance map's size:
+    core/lights/world.py map_size) read into it. (Its Shadows, Blender 5.2's, are noted instead: Primer's image world
+    without shadow rays measured 4 % brighter than Cycles 5.2's, unexplained.)"""
     cycles = getattr(world, "cycles", None)
     if cycles is None:
         return core
-    return dataclasses.replace(core, max_bounces=int(getattr(cycles, "max_bounces", 1024)))
+    environments, suns, guided = world_map_sources(world)
+    size = lights_world.map_size(str(getattr(cycles, "sampling_method", "AUTOMATIC")),
+                                 int(getattr(cycles, "sample_map_resolution", 1024)), environments, suns, guided)
+    return dataclasses.replace(core, max_bounces=int(getattr(cycles, "max_bounces", 1024)), map_size=size)
+
+
+def world_map_sources(world) -> tuple:
+    """What Cycles' Automatic world sampling sizes the map by, among the nodes that feed the world's Surface (inside
+    node groups too): ([(width, height)] of its Environment Textures' images, the number of Sky Textures with a sun
+    disc that read the plain direction, whether none reads another: its Vector unlinked or Texture Coordinate's
+    Generated)."""
+    tree = materials_.node_tree(world)
+    output = None if tree is None else materials_.output_node(tree, "ShaderNodeOutputWorld")
+    if output is None:
+        return [], 0, True
+    environments, suns, guided = [], 0, True
+    for node in _feeding(output.inputs["Surface"]):
+        if node.bl_idname == "ShaderNodeTexEnvironment" and node.image is not None:
+            environments.append(tuple(int(n) for n in node.image.size[:2]))
+        elif node.bl_idname == "ShaderNodeTexSky" and getattr(node, "sun_disc", False):
+            vector = node.inputs.get("Vector")     # (Blender 5.0's Sky Texture has none: its mapping moves the sun)
+            source = None if vector is None else materials_.linked_output_of(vector)
+            if source is None or (source.node.bl_idname == "ShaderNodeTexCoord" and source.name == "Generated"):
+                suns += 1
+            else:
+                guided = False
+    return environments, suns, guided
+
+
+def _feeding(socket, depth: int = 0) -> list:
+    """The nodes whose outputs reach the input `socket`, each once: through reroutes, into node groups (from their
+    Group Output) and out of them (a Group Input leads to the group node's inputs)."""
+    found, seen, stack = [], set(), [(socket, ())]
+    while stack:
+        socket, groups = stack.pop()
+        for link in socket.links if socket.is_linked else ():
+            node = link.from_node
+            key = (groups, node.name, getattr(node.id_data, "name", ""))
+            if key in seen or link.is_muted:
+                continue
+            seen.add(key)
+            found.append(node)
+            if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None and len(groups) < 32:
+                outputs = [n for n in node.node_tree.nodes if n.bl_idname == "NodeGroupOutput"]
+                inner = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+                stack.extend((s, groups + (node,)) for s in (inner.inputs if inner is not None else ()))
+            elif node.bl_idname == "NodeGroupInput" and groups:
+                stack.extend((s, groups[:-1]) for s in groups[-1].inputs)
+            else:
+                stack.extend((s, groups) for s in node.inputs)
+    return found
 
 
 # What Cycles shows for an image it cannot read (core/materials/textures.py MISSING): magenta.

@@ -205,8 +205,8 @@ class SceneCache:
         walk = first or changes.scene or changes.lights or bool(changes.objects)
         # 2. World and materials: colours only, no BVH.
         if first or changes.world:
-            self.world = export.export_world(export.rendered_world(depsgraph.scene_eval, depsgraph.view_layer, depsgraph),
-                                             self.warnings)
+            world = export.rendered_world(depsgraph.scene_eval, depsgraph.view_layer, depsgraph)
+            self.world = export.world_light_settings(world, export.export_world(world, self.warnings))
             report.world = True
         if changes.materials and not first:
             report.materials = self.material_table.refresh(depsgraph, self.warnings)

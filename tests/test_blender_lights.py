@@ -6,6 +6,7 @@ LIGHT_NODES); tests/smoke_bpy42.py runs it on Blender 4.2.
 """
 from __future__ import annotations
 
+import math
 import os
 
 import pytest
@@ -60,3 +61,77 @@ def test_a_lamp_tree_reading_path_depths_or_object_info_is_warned_about():
     assert len(warned["depth"]) == 1 and "Light Path's Ray Depth" in warned["depth"][0], warned
     assert len(warned["info"]) == 1 and "Object Info's Location" in warned["info"][0], warned
     assert warned["camera"] == [], warned
+
+
+def test_world_importance_map_is_sized_as_cycles_world_sampling(tmp_path):
+    """The world's importance map has Cycles' World MIS resolution (scene/light.cpp): Automatic maps an HDRI of 64 x
+    32 at 4096 x 2048 (Cycles' Automatic render is bit for bit its Manual 4096 one, not its Manual 1024 one), one
+    Sky Texture's sun at 512 x 256, and the image's own size where larger; Manual its resolution; None makes no light
+    of it (the rays that escape find it)."""
+    import sys
+    import numpy as np
+    sys.path.insert(0, os.path.join(ROOT, "tools"))
+    from render import load_primer
+    primer = load_primer()
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(camera)
+    scene.camera, camera.location, camera.rotation_euler = camera, (0.0, -4.0, 0.0), (math.pi / 2, 0.0, 0.0)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0)
+    material = bpy.data.materials.new("Metal")
+    material.use_nodes = True
+    principled = material.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Metallic"].default_value, principled.inputs["Roughness"].default_value = 1.0, 0.3
+    bpy.context.object.data.materials.append(material)
+    # 1. An HDRI of 64 x 32 with a bright patch, saved and read back as a file.
+    image = bpy.data.images.new("Sky", 64, 32, float_buffer=True)
+    pixels = np.full((32, 64, 4), 0.2, np.float32)
+    pixels[24:27, 10:13, :3] = 50.0
+    image.pixels.foreach_set(pixels.ravel())
+    image.filepath_raw, image.file_format = str(tmp_path / "sky.exr"), "OPEN_EXR"
+    image.save()
+    world = bpy.data.worlds.new("World")
+    scene.world = world
+    world.use_nodes = True
+    tree = world.node_tree
+    environment = tree.nodes.new("ShaderNodeTexEnvironment")
+    environment.image = image
+    tree.links.new(environment.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+
+    def size(sampling, resolution=1024):
+        world.cycles.sampling_method, world.cycles.sample_map_resolution = sampling, resolution
+        world.update_tag()
+        core = export.export_scene(bpy.context.evaluated_depsgraph_get()).scene.world
+        return core.map_size
+
+    assert size("AUTOMATIC") == (4096, 2048)
+    assert size("MANUAL", 300) == (300, 150)
+    assert size("NONE") == (0, 0)
+    # 2. Cycles: Automatic is its Manual 4096 map, noise for noise.
+    scene.render.engine, scene.cycles.device, scene.cycles.samples = "CYCLES", "CPU", 2
+    scene.cycles.use_denoising, scene.cycles.use_adaptive_sampling = False, False
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 24, 18, 100
+    renders = {}
+    for sampling, resolution in (("AUTOMATIC", 1024), ("MANUAL", 4096), ("MANUAL", 1024)):
+        world.cycles.sampling_method, world.cycles.sample_map_resolution = sampling, resolution
+        bpy.ops.render.render()
+        result = bpy.data.images["Render Result"]
+        path = str(tmp_path / f"{sampling}{resolution}.exr")
+        scene.render.image_settings.file_format = "OPEN_EXR"
+        result.save_render(path)
+        renders[sampling, resolution] = np.array(bpy.data.images.load(path).pixels[:])
+    assert np.array_equal(renders["AUTOMATIC", 1024], renders["MANUAL", 4096])
+    assert not np.array_equal(renders["AUTOMATIC", 1024], renders["MANUAL", 1024])
+    # 3. A Sky Texture's sun beside the image: the image's size, at least 512 x 256; its Vector mapped: 4096.
+    sky = tree.nodes.new("ShaderNodeTexSky")
+    mix = tree.nodes.new("ShaderNodeMixRGB")
+    tree.links.new(environment.outputs["Color"], mix.inputs["Color1"])
+    tree.links.new(sky.outputs["Color"], mix.inputs["Color2"])
+    tree.links.new(mix.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    assert size("AUTOMATIC") == (512, 256)
+    if "Vector" in sky.inputs:                 # (Blender 5.2's Sky Texture; 5.0's has no Vector input)
+        mapping = tree.nodes.new("ShaderNodeMapping")
+        tree.links.new(mapping.outputs["Vector"], sky.inputs["Vector"])
+        assert size("AUTOMATIC") == (4096, 2048)

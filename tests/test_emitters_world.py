@@ -93,16 +93,51 @@ def test_world_map_pdf_integrates_to_one_and_sampling_follows_it():
 
 @pytest.mark.parametrize("size", [(64, 32), (1024, 512), (100, 37)])
 def test_world_map_made_row_by_row_is_the_radiance_at_each_cells_centre(size):
-    """The importance map's radiance, interpolated per row and column (bilinear_equirect_grid), is the same numbers
-    as bilinear_equirect gives point by point at the cell centres, with a map finer, as fine as and coarser than the
+    """The importance map's values, interpolated along rows then columns (bilinear_grid), are the same numbers as
+    bilinear_equirect gives point by point at the cell centres, with a map finer, as fine as and coarser than the
     image, NaN and infinite texels included."""
-    from core.lights.world import bilinear_equirect, bilinear_equirect_grid
+    from core.lights.world import bilinear_equirect, bilinear_grid
     image = environment(96) * np.random.default_rng(5).random((48, 96, 1)).astype(np.float32)
     image[3, 7] = (np.nan, np.inf, -np.inf)
     w, h = size
     uu, vv = np.meshgrid((np.arange(w) + 0.5) / w, (np.arange(h) + 0.5) / h)
     expected = bilinear_equirect(image, uu.ravel(), vv.ravel()).reshape(h, w, 3)
-    np.testing.assert_array_equal(bilinear_equirect_grid(image, w, h), expected)
+    for c in range(3):
+        np.testing.assert_array_equal(bilinear_grid(image[..., c].astype(np.float64), w, h), expected[..., c])
+
+
+@pytest.mark.parametrize("size", [(64, 32), (1024, 512), (100, 37)])
+def test_world_map_in_c_is_the_reference_maps_numbers(size):
+    """The importance map made in C (world.c world_map_rows, in bands of rows) is the numpy reference's, bit for bit:
+    values, each row's normalised running sums and its total, a zero row included."""
+    from core.lights.world import compiled_map, reference_map
+    values = np.random.default_rng(7).random((48, 96)) * (np.arange(96) % 5 == 0)
+    values[20:30] = 0.0
+    w, h = size
+    sines = np.sin(np.pi * ((np.arange(h) + 0.5) / h))
+    for made, expected in zip(compiled_map(values, sines, w, h), reference_map(values, sines, w, h)):
+        np.testing.assert_array_equal(made, expected)
+
+
+@pytest.mark.parametrize("sampling, resolution, environments, suns, guided, size", [
+    ("AUTOMATIC", 1024, [(1024, 512)], 0, True, (4096, 2048)),      # an HDRI of 1k: Cycles maps it at 4k
+    ("AUTOMATIC", 1024, [(8192, 4096)], 0, True, (8192, 4096)),
+    ("AUTOMATIC", 1024, [], 1, True, (512, 256)),                    # one Sky Texture's sun: sun guiding
+    ("AUTOMATIC", 1024, [(1024, 512)], 1, True, (1024, 512)),
+    ("AUTOMATIC", 1024, [], 1, False, (4096, 2048)),                 # its Vector mapped: no guiding
+    ("AUTOMATIC", 1024, [], 2, True, (4096, 2048)),
+    ("MANUAL", 300, [(8192, 4096)], 0, True, (300, 150)),
+    ("NONE", 1024, [(1024, 512)], 0, True, (0, 0)),
+])
+def test_world_map_size_follows_cycles_world_sampling(sampling, resolution, environments, suns, guided, size):
+    """The importance map's size is Cycles' World MIS resolution for each world Sampling setting (checked against
+    Cycles 5.0: its Automatic render of a 1k HDRI is bit for bit its Manual 4096 one); None makes no light of it."""
+    from core.lights.world import map_size
+    assert map_size(sampling, resolution, environments, suns, guided) == size
+    sampler = WorldLight.of(World(image=environment(16), map_size=(size[0] // 64, size[1] // 64)))
+    assert (sampler is None) == (size == (0, 0))
+    if sampler is not None:
+        assert sampler.map.shape == (size[1] // 64, size[0] // 64)
 
 
 @pytest.mark.parametrize("kernels", ["compiled", "numpy"])

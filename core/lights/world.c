@@ -115,3 +115,34 @@ INLINE int world_hit(const LightRecord *light, const double *O, const double *D,
     (void)light; (void)O; (void)D; (void)t_max; (void)out;
     return 0;
 }
+
+/* world.WorldLight.of's map, rows row_start .. row_end - 1: each cell's value linear between the texel centres of
+ * the one-channel image (u repeats, v extends) times its row's sine, the row's running sums normalised to 1 (where
+ * positive) and its total; the same operations in the same order as world.bilinear_grid and numpy's cumsum. */
+static void world_map_rows(const WorldMapArgs *a)
+{
+    int64_t W = a->width, H = a->height, w = a->map_width, h = a->map_height;
+    for (int64_t i = a->row_start; i < a->row_end; i++) {
+        double y = ((double)i + 0.5) / (double)h * (double)H - 0.5;
+        double y0 = floor(y), fy = y - y0;
+        int64_t ya = (int64_t)y0, yb = (int64_t)y0 + 1;
+        ya = ya < 0 ? 0 : (ya > H - 1 ? H - 1 : ya);
+        yb = yb < 0 ? 0 : (yb > H - 1 ? H - 1 : yb);
+        const double *top = a->values + ya * W, *bottom = a->values + yb * W;
+        double *f = a->map + i * w, *cdf = a->columns + i * (w + 1), sum = 0.0;
+        cdf[0] = 0.0;
+        for (int64_t j = 0; j < w; j++) {
+            double x = ((double)j + 0.5) / (double)w * (double)W - 0.5;
+            double x0 = floor(x), fx = x - x0;
+            int64_t xa = ((int64_t)x0 % W + W) % W, xb = (((int64_t)x0 + 1) % W + W) % W;
+            double upper = top[xa] * (1.0 - fx) + top[xb] * fx;
+            double lower = bottom[xa] * (1.0 - fx) + bottom[xb] * fx;
+            f[j] = (upper * (1.0 - fy) + lower * fy) * a->sines[i];
+            sum += f[j];
+            cdf[j + 1] = sum;
+        }
+        a->totals[i] = sum;
+        double scale = sum > 0.0 ? sum : 1.0;
+        for (int64_t j = 0; j <= w; j++) cdf[j] /= scale;
+    }
+}

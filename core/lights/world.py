@@ -16,6 +16,8 @@ from __future__ import annotations
 import dataclasses
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import ClassVar, Optional
 
@@ -26,8 +28,27 @@ from ..native import library, schema
 from ..native.schema import F32, F64, I32, I64, ptr
 from .base import Light, LightFlags, LightHit, LightSample
 
-# The importance map's width (its height is half), whatever the image's (Cycles' default map resolution).
+# The importance map's width (its height is half) where nothing else sets it (Cycles' default World MIS resolution).
 MAP_WIDTH = 1024
+# Cycles' Automatic world sampling never maps finer than this, nor coarser unless one Sky Texture brings its sun.
+AUTO_MAP_SIZE = (4096, 2048)
+SKY_SUN_MAP_SIZE = (512, 256)
+
+
+def map_size(sampling: str, resolution: int, environments: list, suns: int, guided: bool = True) -> tuple:
+    """The world's importance map (width, height) as Cycles' world Sampling sets it (scene/light.cpp,
+    device_update_background): MANUAL: resolution x resolution / 2; AUTOMATIC: the largest of its Environment
+    Textures' (width, height) `environments` and, unless exactly one Sky Texture sun disc reads the plain direction
+    (`suns` 1 and `guided`: Cycles' sun guiding), at least 4096 x 2048 (else at least 512 x 256). (0, 0) for NONE:
+    the world is no light (the rays that escape find it, at weight 1)."""
+    if sampling == "NONE":
+        return (0, 0)
+    if sampling == "MANUAL":
+        return (max(int(resolution), 1), max(int(resolution) // 2, 1))
+    x = max([int(w) for w, _ in environments] + [0])
+    y = max([int(h) for _, h in environments] + [0])
+    floor = SKY_SUN_MAP_SIZE if (suns == 1 and guided) else AUTO_MAP_SIZE
+    return (max(x, floor[0]), max(y, floor[1]))
 
 
 @dataclass
@@ -57,6 +78,8 @@ class World:
     aovs:     its AOV Output nodes, [(AOV name, Color: (3,) or a graph.Link, Value: float or a graph.Link)] (as
               Material.aovs): what camera chains that escape write into the render's shader AOVs of that name
               (core/lights/world_graph.py compile_aovs, core/integrators/passes.py along_ray)
+    map_size: (width, height) of its importance map (Cycles' World MIS resolution: map_size()), (0, 0): not sampled
+              as a light (Cycles' Sampling None), None: MAP_WIDTH x MAP_WIDTH / 2. Noise only: the estimate is the same
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -73,6 +96,7 @@ class World:
     volume: list = field(default_factory=list)
     seen: Optional[object] = None
     aovs: list = field(default_factory=list)
+    map_size: Optional[tuple] = None
 
     @property
     def varying(self) -> bool:
@@ -152,26 +176,71 @@ def bilinear_equirect(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.nda
     return top * (1.0 - fy) + bottom * fy
 
 
-def bilinear_equirect_grid(image: np.ndarray, w: int, h: int) -> np.ndarray:
-    """bilinear_equirect at the centres of a w x h grid, u = (j + 0.5) / w, v = (i + 0.5) / h, done per row and
-    column (the same products and sums in the same order, so the same numbers, without a gather per point):
-    (h, w, 3) float64."""
-    H, W = image.shape[:2]
+def bilinear_grid(values: np.ndarray, w: int, h: int) -> np.ndarray:
+    """One channel (H, W) of an equirectangular image, linear between texel centres (u repeats, v extends), at the
+    centres of a w x h grid: along u on the image's own rows first, then along v: (h, w) float64."""
+    H, W = values.shape
     x = (np.arange(w) + 0.5) / w * W - 0.5
     y = (np.arange(h) + 0.5) / h * H - 0.5
     x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = (x - x0)[None, :, None], (y - y0)[:, None, None]
-    x0 = x0.astype(np.int64)
-    y0 = y0.astype(np.int64)
-    xa, xb = x0 % W, (x0 + 1) % W
-    ya, yb = np.clip(y0, 0, H - 1), np.clip(y0 + 1, 0, H - 1)
-    pixels = image[..., :3].astype(np.float64)
+    fx, fy = (x - x0)[None, :], (y - y0)[:, None]
+    xa, xb = x0.astype(np.int64) % W, (x0.astype(np.int64) + 1) % W
+    ya, yb = np.clip(y0.astype(np.int64), 0, H - 1), np.clip(y0.astype(np.int64) + 1, 0, H - 1)
+    rows = values[:, xa] * (1.0 - fx) + values[:, xb] * fx          # (H, w)
+    out = rows[ya]
+    out *= 1.0 - fy
+    below = rows[yb]
+    below *= fy
+    out += below
+    return out
 
-    def across(rows: np.ndarray) -> np.ndarray:
-        """Rows (h, W, 3) interpolated along u at the grid's columns: (h, w, 3)."""
-        return np.take(rows, xa, axis=1) * (1.0 - fx) + np.take(rows, xb, axis=1) * fx
 
-    return across(pixels[ya]) * (1.0 - fy) + across(pixels[yb]) * fy
+def reference_map(values: np.ndarray, sines: np.ndarray, w: int, h: int) -> tuple:
+    """The importance map of a one-channel image `values` (H, W) float64 on a w x h grid: (f (h, w): linear between
+    texel centres times the row's sine `sines` (h,); columns (h, w + 1): each row's running sums from 0, normalised
+    to end at 1 where the row has any; totals (h,): each row's sum before that), all float64."""
+    f = bilinear_grid(values, w, h)
+    f *= sines[:, None]
+    columns = np.empty((h, w + 1))
+    columns[:, 0] = 0.0
+    np.cumsum(f, axis=1, out=columns[:, 1:])
+    totals = columns[:, -1].copy()
+    columns /= np.where(columns[:, -1:] > 0, columns[:, -1:], 1.0)
+    return f, columns, totals
+
+
+WorldMapArgs = schema.function("primer_world_map", "world_map_rows", schema.record("WorldMapArgs", "primer_world_map's arguments: rows row_start .. row_end - 1 of a world's importance map (world.reference_map's numbers).", [
+    ("values", ptr(F64), "(H, W) the image's channel mean"),
+    ("sines", ptr(F64), "(h,) each map row's sin(theta)"),
+    ("width", I64, "W"),
+    ("height", I64, "H"),
+    ("map_width", I64, "w"),
+    ("map_height", I64, "h"),
+    ("row_start", I64, "the first row made"),
+    ("row_end", I64, "past the last"),
+    ("map", schema.out(F64), "(h, w) the map's values"),
+    ("columns", schema.out(F64), "(h, w + 1) each row's normalised running sums"),
+    ("totals", schema.out(F64), "(h,) each row's sum"),
+]))
+
+
+def compiled_map(values: np.ndarray, sines: np.ndarray, w: int, h: int) -> tuple:
+    """reference_map by world.c (world_map_rows), in bands of rows, one per thread: the same numbers."""
+    values = np.ascontiguousarray(values, np.float64)
+    sines = np.ascontiguousarray(sines, np.float64)
+    f, columns, totals = np.empty((h, w)), np.empty((h, w + 1)), np.empty(h)
+    threads = max(1, min(os.cpu_count() or 1, h))
+    bounds = np.linspace(0, h, threads + 1).astype(np.int64)
+
+    def band(k: int) -> None:
+        """Rows bounds[k] .. bounds[k + 1] - 1."""
+        library.call("primer_world_map", WorldMapArgs(
+            values=values, sines=sines, width=values.shape[1], height=values.shape[0], map_width=w, map_height=h,
+            row_start=int(bounds[k]), row_end=int(bounds[k + 1]), map=f, columns=columns, totals=totals))
+
+    with ThreadPoolExecutor(threads) as pool:
+        list(pool.map(band, range(threads)))
+    return f, columns, totals
 
 
 @dataclass
@@ -226,28 +295,29 @@ class WorldLight(Light):
         return self                          # infinitely far: no position
 
     @classmethod
-    def of(cls, world: World, width: int = 0) -> Optional["WorldLight"]:
-        """The light of a world with an image (None for a constant or dark world). width: the map's."""
-        if world.image is None or not world.lights:
+    def of(cls, world: World, width: int = 0, kernels: str = "compiled") -> Optional["WorldLight"]:
+        """The light of a world with an image (None for a constant or dark world, or one not sampled: map size (0,
+        0)). width: the map's (its height half), else the world's map_size, else MAP_WIDTH; kernels "compiled" makes
+        the map in C where the library is loaded (world.c world_map_rows: the same numbers), "numpy" here."""
+        size = (width, max(1, width // 2)) if width else world.map_size or (MAP_WIDTH, MAP_WIDTH // 2)
+        if world.image is None or not world.lights or min(size) <= 0:
             return None
         # As Cycles, the map has its own resolution, whatever the image's: finer than a small image, so that the
         # bilinear ramp around a bright texel (a sun) gets the pdf its radiance needs, not its dim neighbour's.
-        w = width or MAP_WIDTH
-        h = max(1, w // 2)
-        # f at the map's cell centres: the radiance's plain RGB mean, times sin(theta) of the row.
-        # The map is made in texture space: no rotation (a direction is rotated before lookup); bilinear_equirect at
-        # the cell centres, row by row: the same numbers as point by point.
-        L = bilinear_equirect_grid(world.image, w, h) * abs(world.strength)
-        L = np.where(np.isfinite(L), np.abs(L), 0.0)
-        # (the channels' mean as numpy's mean sums three: (r + g) + b, then / 3)
-        f = (L[..., 0] + L[..., 1] + L[..., 2]) / 3.0 * np.sin(math.pi * ((np.arange(h) + 0.5) / h))[:, None]
-        row_sums = f.sum(axis=1) / w
+        w, h = int(size[0]), int(size[1])
+        # f at the map's cell centres: the radiance's mean over the channels (of the magnitudes, the non-finite read as
+        # 0), linear between texel centres, times sin(theta) of the row. The map is made in texture space: no rotation
+        # (a direction is rotated before lookup).
+        pixels = np.abs(np.asarray(world.image[..., :3], np.float64))
+        pixels = np.where(np.isfinite(pixels), pixels, 0.0)
+        mean = (pixels[..., 0] + pixels[..., 1] + pixels[..., 2]) * (abs(world.strength) / 3.0)
+        sines = np.sin(math.pi * ((np.arange(h) + 0.5) / h))
+        f, columns, totals = (compiled_map if kernels == "compiled" and library.available() else reference_map)(
+            mean, sines, w, h)
+        row_sums = totals / w
         total = row_sums.sum() / h
         if not total > 0.0:
             return None
-        columns = np.zeros((h, w + 1))
-        columns[:, 1:] = np.cumsum(f, axis=1)
-        columns /= np.where(columns[:, -1:] > 0, columns[:, -1:], 1.0)
         rows = np.zeros(h + 1)
         rows[1:] = np.cumsum(row_sums)
         rows /= rows[-1]

@@ -530,6 +530,7 @@ typedef struct LightHitArgs LightHitArgs;
 typedef struct EmitterTables EmitterTables;
 typedef struct EmitterPickArgs EmitterPickArgs;
 typedef struct LampGraph LampGraph;
+typedef struct WorldMapArgs WorldMapArgs;
 typedef struct WorldTables WorldTables;
 typedef struct WorldGraph WorldGraph;
 typedef struct WorldBakeArgs WorldBakeArgs;
@@ -1071,6 +1072,21 @@ struct LampGraph {
     double half_cot;                        /* spot: cot(spot_size / 2) / 2; sun: 1 / (2 sin(angle / 4)) (Cycles' half_inv_sin_half_angle) */
 };
 
+/* primer_world_map's arguments: rows row_start .. row_end - 1 of a world's importance map (world.reference_map's numbers). */
+struct WorldMapArgs {
+    const double *values;                   /* (H, W) the image's channel mean */
+    const double *sines;                    /* (h,) each map row's sin(theta) */
+    int64_t width;                          /* W */
+    int64_t height;                         /* H */
+    int64_t map_width;                      /* w */
+    int64_t map_height;                     /* h */
+    int64_t row_start;                      /* the first row made */
+    int64_t row_end;                        /* past the last */
+    double *map;                            /* (h, w) the map's values */
+    double *columns;                        /* (h, w + 1) each row's normalised running sums */
+    double *totals;                         /* (h,) each row's sum */
+};
+
 /* The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image. */
 struct WorldTables {
     const float *image;                     /* (H, W, 3) linear radiance, or NULL for a constant world */
@@ -1346,6 +1362,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1646818140122983101);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "LampGraph") == 0) return UINT64_C(3628791564941194139);
+    if (strcmp(name, "WorldMapArgs") == 0) return UINT64_C(7748268880605941743);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(6964717275989497168);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
@@ -1393,6 +1410,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "EmitterTables") == 0) return (int64_t)sizeof(EmitterTables);
     if (strcmp(name, "EmitterPickArgs") == 0) return (int64_t)sizeof(EmitterPickArgs);
     if (strcmp(name, "LampGraph") == 0) return (int64_t)sizeof(LampGraph);
+    if (strcmp(name, "WorldMapArgs") == 0) return (int64_t)sizeof(WorldMapArgs);
     if (strcmp(name, "WorldTables") == 0) return (int64_t)sizeof(WorldTables);
     if (strcmp(name, "WorldGraph") == 0) return (int64_t)sizeof(WorldGraph);
     if (strcmp(name, "WorldBakeArgs") == 0) return (int64_t)sizeof(WorldBakeArgs);
