@@ -191,6 +191,91 @@ static void panorama_cone(const CameraRecord *camera, int kind, double u, double
     *cone = camera->clip_start * *spread;
 }
 
+/* camera.polynomial_radius: the radius on the sensor where the polynomial k0 + k1 r + ... + k4 r^4 = theta (Cycles'
+ * direction_to_fisheye_lens_polynomial: Newton's method from the linear term's root, at most 20 steps, stopping once
+ * a step is below 1e-6). */
+INLINE double polynomial_radius(const double *k, double theta)
+{
+    double r = (theta - k[0]) / k[1];
+    for (int i = 0; i < 20; i++) {
+        double r2 = r * r;
+        double F = theta - (k[0] + (((k[1] * r + k[2] * r2) + k[3] * (r2 * r)) + k[4] * (r2 * r2)));
+        double dF = ((k[1] + 2.0 * k[2] * r) + 3.0 * k[3] * r2) + 4.0 * k[4] * (r2 * r);
+        double step = F / dF;
+        r += step;
+        if (fabs(step) < 1e-6) break;
+    }
+    return r;
+}
+
+/* camera.direction_to_panorama for one direction c (3, any length) in Cycles' panorama frame: the panorama (u, v)
+ * (uv, 2; v up) the camera's projection maps it to (Cycles' direction_to_panorama, the inverse of the ray
+ * generation), nothing clipped and the longitude not wrapped, as Cycles. */
+INLINE void direction_to_panorama(const CameraRecord *camera, const double *c, double *uv)
+{
+    int kind = camera->kind;
+    const double *range = camera->range;
+    double x = c[0], y = c[1], z = c[2];
+    double length = sqrt(x * x + y * y + z * z), across = sqrt(y * y + z * z);
+    if (kind == CAMERA_EQUIRECTANGULAR) {
+        if (length == 0.0) { uv[0] = uv[1] = 0.0; return; }
+        double cos_polar = z / length;
+        cos_polar = cos_polar < -1.0 ? -1.0 : (cos_polar > 1.0 ? 1.0 : cos_polar);
+        uv[0] = (atan2(y, x) + range[0]) / (range[0] - range[1]);
+        uv[1] = (acos(cos_polar) + range[2] - PI / 2.0) / (range[2] - range[3]);
+        return;
+    }
+    if (kind == CAMERA_EQUIANGULAR_CUBEMAP_FACE) {
+        uv[0] = 0.5 - atan2(y, x) * (2.0 / PI);
+        uv[1] = atan2(z, x) * (2.0 / PI) + 0.5;
+        return;
+    }
+    if (kind == CAMERA_MIRRORBALL) {
+        /* The ball's point whose reflection of the view (0, -1, 0) is c: c - (0, 1, 0) over 2 sqrt(-(c_y - 1) / 2). */
+        double unit = length > 0.0 ? length : 1.0;
+        double div = 2.0 * sqrt(at_least(-0.5 * (y / unit - 1.0), 0.0));
+        div = div > 0.0 ? div : 1.0;
+        uv[0] = 0.5 * (x / unit / div + 1.0);
+        uv[1] = 0.5 * (z / unit / div + 1.0);
+        return;
+    }
+    if (kind == CAMERA_CENTRAL_CYLINDRICAL) {
+        double flat = sqrt(x * x + y * y), height = flat > 0.0 ? z / flat : 0.0;
+        uv[0] = (atan2(y, x) + range[0]) / (range[0] - range[1]);
+        uv[1] = (height - range[2]) / (range[3] - range[2]);
+        return;
+    }
+    /* The fisheyes: the radius on the image plane from the angle theta off the axis, along (y, z) normalised. */
+    double theta = atan2(across, x), r, width = 1.0, height = 1.0;
+    if (kind == CAMERA_FISHEYE_EQUIDISTANT) r = theta / camera->fisheye_fov;
+    else {
+        r = kind == CAMERA_FISHEYE_EQUISOLID ? 2.0 * camera->fisheye_lens * sin(0.5 * theta)
+                                              : polynomial_radius(camera->polynomial, -theta);
+        width = camera->scale_x;
+        height = camera->scale_y;
+    }
+    double scale = across > 0.0 ? r / across : 0.0;
+    uv[0] = 0.5 - scale * y / width;
+    uv[1] = scale * z / height + 0.5;
+}
+
+/* camera.panorama_raster for one point Q (3) already in the camera's panorama frame: raster (2), x from the image's
+ * left edge, y from its bottom, in pixels of an image width x height (the panorama shift taken off). */
+INLINE void panorama_raster(const CameraRecord *camera, const double *Q, double width, double height, double *raster)
+{
+    double uv[2];
+    direction_to_panorama(camera, Q, uv);
+    raster[0] = (uv[0] - camera->shift_x) * width;
+    raster[1] = (uv[1] - camera->shift_y) * height;
+}
+
+/* The panorama (u, v) of n directions (for the tests): camera.direction_to_panorama. directions (n, 3) in the
+ * camera's panorama frame; out uv (n, 2). */
+static void panorama_uv(const PanoramaUvArgs *a)
+{
+    for (int64_t i = 0; i < a->n; i++) direction_to_panorama(a->camera, a->directions + 3 * i, a->uv + 2 * i);
+}
+
 /* One camera ray per lane (inlined once per camera kind, so that the loop has no branch). */
 /* camera._panorama_lens for one ray: the local unit direction d through the thin lens of the uniform numbers u0, u1,
  * worked in Cycles' panorama frame (x forward; a mirror ball's own); o becomes the aperture's point past clip_start

@@ -506,6 +506,7 @@ INLINE int light_is(int kind, int flags)
 
 typedef struct CameraRecord CameraRecord;
 typedef struct CameraRaysArgs CameraRaysArgs;
+typedef struct PanoramaUvArgs PanoramaUvArgs;
 typedef struct AscendingArgs AscendingArgs;
 typedef struct UnconvergedArgs UnconvergedArgs;
 typedef struct AddPixelsArgs AddPixelsArgs;
@@ -598,6 +599,14 @@ struct CameraRaysArgs {
     double *t_max;                          /* (p spp,) */
     uint8_t *valid;                         /* (p spp,) */
     double *time;                           /* (p spp,) each ray's time in the shutter */
+};
+
+/* primer_panorama_uv's arguments: the panorama (u, v) of n directions (camera.c direction_to_panorama). */
+struct PanoramaUvArgs {
+    const CameraRecord *camera;             /* a panoramic camera's record (camera_record) */
+    int64_t n;
+    const double *directions;               /* (n, 3) in the camera's panorama frame */
+    double *uv;                             /* (n, 2) */
 };
 
 /* primer_ascending's arguments: whether p pixels are distinct flat indices below size, ascending. */
@@ -908,6 +917,8 @@ struct PassTables {
     const double *vector_objects;           /* (n, 2, 3, 4) VectorTables.objects */
     int32_t vector_offset_before;           /* VectorTables.offsets[0]: the motion:before attribute's first float */
     int32_t vector_offset_after;            /* VectorTables.offsets[1] */
+    const CameraRecord *vector_camera;      /* a panoramic camera whose projection the Vector pass inverts (VectorTables.panorama; vector_raster's rows 0-2 then each frame's world to its panorama frame); NULL: vector_raster projects */
+    double vector_size[2];                  /* the image's width and height in pixels (a panorama's (u, v) to the raster) */
     int32_t aov_base;                       /* the AOVs' first channel (PassLayout.aov_base), -1: none */
     const WorldGraph *world_aovs;           /* the world's AOV Output nodes (world_graph.compile_aovs), NULL: none written */
 };
@@ -1322,6 +1333,7 @@ EXPORT uint64_t primer_layout(const char *name)
 {
     if (strcmp(name, "CameraRecord") == 0) return UINT64_C(1044589299288100319);
     if (strcmp(name, "CameraRaysArgs") == 0) return UINT64_C(8278503245335778024);
+    if (strcmp(name, "PanoramaUvArgs") == 0) return UINT64_C(7910778461562708476);
     if (strcmp(name, "AscendingArgs") == 0) return UINT64_C(8778812495168971938);
     if (strcmp(name, "UnconvergedArgs") == 0) return UINT64_C(333743641446770115);
     if (strcmp(name, "AddPixelsArgs") == 0) return UINT64_C(5374307677316731809);
@@ -1337,7 +1349,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
-    if (strcmp(name, "PassTables") == 0) return UINT64_C(4132924901352058011);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(7803879886586697977);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
@@ -1369,6 +1381,7 @@ EXPORT int64_t primer_record_size(const char *name)
 {
     if (strcmp(name, "CameraRecord") == 0) return (int64_t)sizeof(CameraRecord);
     if (strcmp(name, "CameraRaysArgs") == 0) return (int64_t)sizeof(CameraRaysArgs);
+    if (strcmp(name, "PanoramaUvArgs") == 0) return (int64_t)sizeof(PanoramaUvArgs);
     if (strcmp(name, "AscendingArgs") == 0) return (int64_t)sizeof(AscendingArgs);
     if (strcmp(name, "UnconvergedArgs") == 0) return (int64_t)sizeof(UnconvergedArgs);
     if (strcmp(name, "AddPixelsArgs") == 0) return (int64_t)sizeof(AddPixelsArgs);
