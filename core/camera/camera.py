@@ -601,92 +601,6 @@ def panorama_to_local(camera: Camera, c: np.ndarray) -> np.ndarray:
     return vectors.rows(-c[:, 1], c[:, 2], -c[:, 0])
 
 
-def direction_to_panorama(camera: Camera, c: np.ndarray, sensor: tuple) -> tuple:
-    """The panorama (u, v) (n,) float64 each, v growing upwards, that directions c (n, 3) in Cycles' panorama frame (x
-    forward, y left, z up; any length) map to: the inverse of the ray generation (panorama_local, panorama_directions)
-    for every panorama_type, as Cycles' direction_to_panorama (kernel/camera/projection.h), its Vector pass's
-    mapping. Nothing is clipped, as Cycles: a direction past a fisheye's image circle, a mirror ball's rim or the
-    spans of an equirectangular or cylindrical panorama maps outside [0, 1]^2 by the same formula; the longitude
-    does not wrap (atan2's (-pi, pi]). sensor: the (width, height) in mm (_panorama_sensor) the equisolid and
-    polynomial fisheyes measure their radius on. A zero direction maps as Cycles' formulas take it (the
-    equirectangular's (0, 0); a cylinder's height 0)."""
-    kind = camera.panorama_type
-    c = np.asarray(c, np.float64)
-    x, y, z = c[:, 0], c[:, 1], c[:, 2]
-    length = np.sqrt(x * x + y * y + z * z)
-    across = np.sqrt(y * y + z * z)                     # (the length of (y, z): a fisheye's radius is along it)
-    if kind == "EQUIRECTANGULAR":
-        # Cycles' equirectangular_range: (lon_min - lon_max, -lon_min, lat_min - lat_max, -lat_min + pi / 2).
-        cos_polar = np.clip(np.divide(z, length, out=np.ones_like(z), where=length > 0.0), -1.0, 1.0)
-        u = (np.arctan2(y, x) + camera.longitude_min) / (camera.longitude_min - camera.longitude_max)
-        v = (np.arccos(cos_polar) + camera.latitude_min - math.pi / 2.0) / (camera.latitude_min - camera.latitude_max)
-        zero = length == 0.0
-        return np.where(zero, 0.0, u), np.where(zero, 0.0, v)
-    if kind == "EQUIANGULAR_CUBEMAP_FACE":
-        return 0.5 - np.arctan2(y, x) * (2.0 / math.pi), np.arctan2(z, x) * (2.0 / math.pi) + 0.5
-    if kind == "MIRRORBALL":
-        # The ball's point whose reflection of the view (0, -1, 0) is c: c - (0, 1, 0) over 2 sqrt(-(c_y - 1) / 2).
-        c = c / np.where(length > 0.0, length, 1.0)[:, None]
-        x, y, z = c[:, 0], c[:, 1] - 1.0, c[:, 2]
-        div = 2.0 * np.sqrt(np.maximum(-0.5 * y, 0.0))
-        div = np.where(div > 0.0, div, 1.0)
-        return 0.5 * (x / div + 1.0), 0.5 * (z / div + 1.0)
-    if kind == "CENTRAL_CYLINDRICAL":
-        z_min, z_max = camera.cylinder_v_min / camera.cylinder_radius, camera.cylinder_v_max / camera.cylinder_radius
-        flat = np.sqrt(x * x + y * y)
-        height = np.divide(z, flat, out=np.zeros_like(z), where=flat > 0.0)
-        u = (np.arctan2(y, x) + camera.cylinder_u_min) / (camera.cylinder_u_min - camera.cylinder_u_max)
-        return u, (height - z_min) / (z_max - z_min)
-    # The fisheyes: the radius on the image plane from the angle theta off the axis, along (y, z) normalised.
-    theta = np.arctan2(across, x)
-    if kind == "FISHEYE_EQUIDISTANT":                   # theta = r fov / 2 with the plane 2 (u - 0.5) across
-        r, width, height = theta / camera.fisheye_fov, 1.0, 1.0
-    elif kind == "FISHEYE_EQUISOLID":                   # r = 2 lens sin(theta / 2), in mm on the sensor
-        r, (width, height) = 2.0 * camera.fisheye_lens * np.sin(0.5 * theta), sensor
-    else:
-        r, (width, height) = polynomial_radius(camera.fisheye_polynomial, -theta), sensor
-    scale = np.divide(r, across, out=np.zeros_like(r), where=across > 0.0)
-    return 0.5 - scale * y / width, scale * z / height + 0.5
-
-
-def polynomial_radius(k: tuple, theta: np.ndarray) -> np.ndarray:
-    """The radius r (n,) float64 on the sensor (mm) where a polynomial fisheye's k0 + k1 r + ... + k4 r^4 = theta (n,)
-    (the angle off the axis, negated): Cycles' direction_to_fisheye_lens_polynomial, Newton's method from the linear
-    term's root, at most 20 steps, each lane stopping once a step is below 1e-6."""
-    k0, k1, k2, k3, k4 = (float(value) for value in k)
-    r = (theta - k0) / k1
-    going = np.ones(len(r), bool)
-    for _ in range(20):
-        r2 = r * r
-        F = theta - (k0 + (((k1 * r + k2 * r2) + k3 * (r2 * r)) + k4 * (r2 * r2)))
-        dF = ((k1 + 2.0 * k2 * r) + 3.0 * k3 * r2) + 4.0 * k4 * (r2 * r)
-        step = F / dF
-        r = np.where(going, r + step, r)
-        going &= ~(np.abs(step) < 1e-6)
-        if not going.any():
-            break
-    return r
-
-
-def world_to_panorama(camera: Camera) -> np.ndarray:
-    """Cycles' worldtocamera of a panoramic camera (3, 4) float64: world points into its panorama frame (x forward,
-    y left, z up; a mirror ball's looks down y), the inverse of its scale-cleared matrix turned by local_to_panorama."""
-    to_local = np.linalg.inv(_clear_scale(np.asarray(camera.matrix_world, np.float64)))[:3]
-    return local_to_panorama(camera, to_local.T).T
-
-
-def panorama_raster(camera: Camera, points: np.ndarray, width: int, height: int, pixel_aspect=(1.0, 1.0),
-                    to_frame: Optional[np.ndarray] = None) -> np.ndarray:
-    """Where a panoramic camera sees world points (n, 3): raster (n, 2) float64, x in pixels from the image's left
-    edge, y from its bottom (Cycles' raster), the inverse of generate_rays' (u, v) (_panorama_uv, its shift taken
-    off) through direction_to_panorama. to_frame: (3, 4) the world-to-panorama-frame transform (world_to_panorama,
-    e.g. of the camera at another frame), by default the camera's own. A point at the eye maps as a zero direction."""
-    to_frame = world_to_panorama(camera) if to_frame is None else np.asarray(to_frame, np.float64)
-    c = np.asarray(points, np.float64) @ to_frame[:, :3].T + to_frame[:, 3]
-    u, v = direction_to_panorama(camera, c, _panorama_sensor(camera, width, height, pixel_aspect))
-    return np.c_[(u - camera.shift_x) * width, (v - camera.shift_y) * height]
-
-
 def panorama_local(camera: Camera, u: np.ndarray, v: np.ndarray, width: int, height: int,
                    pixel_aspect=(1.0, 1.0)) -> tuple:
     """The pinhole directions of a panoramic camera at its (u, v) (n,) (_panorama_uv): local unit directions (n, 3)
@@ -892,14 +806,6 @@ CameraRaysArgs = schema.function("primer_camera_rays", "camera_rays", schema.rec
 ]))
 
 
-PanoramaUvArgs = schema.function("primer_panorama_uv", "panorama_uv", schema.record("PanoramaUvArgs", "primer_panorama_uv's arguments: the panorama (u, v) of n directions (camera.c direction_to_panorama).", [
-    ("camera", ptr("CameraRecord"), "a panoramic camera's record (camera_record)"),
-    ("n", I64, ""),
-    ("directions", ptr(F64), "(n, 3) in the camera's panorama frame"),
-    ("uv", out(F64), "(n, 2)"),
-]))
-
-
 def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, origin: np.ndarray,
                   pixel_filter: Optional[PixelFilter] = None):
     """Return the camera's C record: everything generate_rays needs that does not depend on the sample.
@@ -964,13 +870,3 @@ def compiled_rays(record, seed: int, width: int, height: int, pixels: np.ndarray
     if times:
         return origins, directions, t_max, valid.astype(bool), time
     return origins, directions, t_max, valid.astype(bool)
-
-
-def compiled_panorama_uv(record, directions: np.ndarray) -> tuple:
-    """direction_to_panorama from camera.c (for the tests): the (u, v) (n,) float64 each of directions (n, 3) in the
-    panorama frame of the panoramic camera whose C record (camera_record) is `record`."""
-    from ..native import library
-    directions = library.contiguous(directions, np.float64)
-    uv = np.empty((len(directions), 2))
-    library.call("primer_panorama_uv", PanoramaUvArgs(camera=record, n=len(directions), directions=directions, uv=uv))
-    return uv[:, 0], uv[:, 1]

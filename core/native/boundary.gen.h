@@ -506,7 +506,6 @@ INLINE int light_is(int kind, int flags)
 
 typedef struct CameraRecord CameraRecord;
 typedef struct CameraRaysArgs CameraRaysArgs;
-typedef struct PanoramaUvArgs PanoramaUvArgs;
 typedef struct AscendingArgs AscendingArgs;
 typedef struct UnconvergedArgs UnconvergedArgs;
 typedef struct AddPixelsArgs AddPixelsArgs;
@@ -599,14 +598,6 @@ struct CameraRaysArgs {
     double *t_max;                          /* (p spp,) */
     uint8_t *valid;                         /* (p spp,) */
     double *time;                           /* (p spp,) each ray's time in the shutter */
-};
-
-/* primer_panorama_uv's arguments: the panorama (u, v) of n directions (camera.c direction_to_panorama). */
-struct PanoramaUvArgs {
-    const CameraRecord *camera;             /* a panoramic camera's record (camera_record) */
-    int64_t n;
-    const double *directions;               /* (n, 3) in the camera's panorama frame */
-    double *uv;                             /* (n, 2) */
 };
 
 /* primer_ascending's arguments: whether p pixels are distinct flat indices below size, ascending. */
@@ -917,8 +908,9 @@ struct PassTables {
     const double *vector_objects;           /* (n, 2, 3, 4) VectorTables.objects */
     int32_t vector_offset_before;           /* VectorTables.offsets[0]: the motion:before attribute's first float */
     int32_t vector_offset_after;            /* VectorTables.offsets[1] */
-    const CameraRecord *vector_camera;      /* a panoramic camera whose projection the Vector pass inverts (VectorTables.panorama; vector_raster's rows 0-2 then each frame's world to its panorama frame); NULL: vector_raster projects */
-    double vector_size[2];                  /* the image's width and height in pixels (a panorama's (u, v) to the raster) */
+    int32_t vector_panorama;                /* 1: a panoramic camera, whose Window (vector_window) maps each frame's camera-space point (vector_raster's rows 0-2) to the raster; 0: vector_raster projects */
+    double vector_window[8];                /* VectorTables.window: the panorama's numbers (graph.panorama_window) */
+    double vector_size[2];                  /* VectorTables.size: the image's width and height in pixels */
     int32_t aov_base;                       /* the AOVs' first channel (PassLayout.aov_base), -1: none */
     const WorldGraph *world_aovs;           /* the world's AOV Output nodes (world_graph.compile_aovs), NULL: none written */
 };
@@ -1333,7 +1325,6 @@ EXPORT uint64_t primer_layout(const char *name)
 {
     if (strcmp(name, "CameraRecord") == 0) return UINT64_C(1044589299288100319);
     if (strcmp(name, "CameraRaysArgs") == 0) return UINT64_C(8278503245335778024);
-    if (strcmp(name, "PanoramaUvArgs") == 0) return UINT64_C(7910778461562708476);
     if (strcmp(name, "AscendingArgs") == 0) return UINT64_C(8778812495168971938);
     if (strcmp(name, "UnconvergedArgs") == 0) return UINT64_C(333743641446770115);
     if (strcmp(name, "AddPixelsArgs") == 0) return UINT64_C(5374307677316731809);
@@ -1349,7 +1340,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
-    if (strcmp(name, "PassTables") == 0) return UINT64_C(7803879886586697977);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(7197474529003466092);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
@@ -1381,7 +1372,6 @@ EXPORT int64_t primer_record_size(const char *name)
 {
     if (strcmp(name, "CameraRecord") == 0) return (int64_t)sizeof(CameraRecord);
     if (strcmp(name, "CameraRaysArgs") == 0) return (int64_t)sizeof(CameraRaysArgs);
-    if (strcmp(name, "PanoramaUvArgs") == 0) return (int64_t)sizeof(PanoramaUvArgs);
     if (strcmp(name, "AscendingArgs") == 0) return (int64_t)sizeof(AscendingArgs);
     if (strcmp(name, "UnconvergedArgs") == 0) return (int64_t)sizeof(UnconvergedArgs);
     if (strcmp(name, "AddPixelsArgs") == 0) return (int64_t)sizeof(AddPixelsArgs);

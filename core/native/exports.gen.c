@@ -8,11 +8,6 @@ EXPORT void primer_camera_rays(CameraRaysArgs *a)
     camera_rays(a);
 }
 
-EXPORT void primer_panorama_uv(PanoramaUvArgs *a)
-{
-    panorama_uv(a);
-}
-
 EXPORT void primer_ascending(AscendingArgs *a)
 {
     a->result = ascending(a);
