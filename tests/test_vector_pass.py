@@ -242,7 +242,8 @@ def test_each_panoramas_inverse_projection_sends_its_rays_back_to_their_pixels(k
     rays = camera_.generate_rays(camera, 64, 48, x, y, settings.pixel_aspect)
     points = rays.origins + 3.0 * rays.directions
     to_camera = camera_.world_to_camera(camera)
-    uv = graph.panorama_window(points @ to_camera[:, :3].T + to_camera[:, 3], np.array(panorama_frame(camera, settings)))
+    seen = points @ to_camera[:, :3].T + to_camera[:, 3]          # (in the camera's space: x right, y up, z ahead)
+    uv = graph.panorama_window(seen, np.array(panorama_frame(camera, settings)))
     raster = (uv[:, :2] - (camera.shift_x, camera.shift_y)) * (64.0, 48.0)
     assert rays.valid.sum() > 250
     np.testing.assert_allclose(raster[rays.valid], np.c_[x, 48.0 - y][rays.valid], atol=1e-4)

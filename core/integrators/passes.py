@@ -559,14 +559,16 @@ def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, l
     if blurred:
         return VectorTables(np.zeros((0, 3, 4)), np.zeros((0, 3, 4)), np.zeros((3, 4, 4)), 1)
     frames = (cameras[0], scene.camera, cameras[1])
-    panorama = scene.camera.type == "PANO"
-    if panorama:
+    panoramic = scene.camera.type == "PANO"
+    if panoramic:
+        if len(window) != 8:
+            raise ValueError("a panoramic camera's Vector pass needs its Window numbers (render.panorama_frame)")
         raster = np.tile(np.eye(4), (3, 1, 1))
         for k, camera in enumerate(frames):
             raster[k, :3] = camera_.world_to_camera(camera)
     else:
-        frames = [camera if camera.type != "PANO" else dataclasses.replace(scene.camera, matrix_world=camera.matrix_world)
-                  for camera in frames]
+        frames = [camera if camera.type != "PANO"
+                  else dataclasses.replace(scene.camera, matrix_world=camera.matrix_world) for camera in frames]
         raster = np.stack([camera_.world_to_raster(camera, width, height, tuple(pixel_aspect)) for camera in frames])
     n = len(scene.instances)
     layout = layout or {}
@@ -588,7 +590,7 @@ def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, l
                 objects[i, k] = np.asarray(instance.vector_motion[k] if instance.vector_motion else instance.matrix,
                                            np.float64)[:3]
     return VectorTables(moves[0], moves[1], raster, 0, deformed, objects, offsets,
-                        tuple(float(x) for x in window) if panorama else (), (float(width), float(height)))
+                        tuple(float(x) for x in window) if panoramic else (), (float(width), float(height)))
 
 
 def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray, attributes=None) -> np.ndarray:
