@@ -339,3 +339,17 @@ def test_the_compiled_panorama_motion_follows_the_reference(kind):
     assert compiled.stats.kernels == "compiled"
     np.testing.assert_allclose(compiled.aux["vector"], reference.aux["vector"], atol=1e-5)
     assert np.abs(reference.aux["vector"]).max() > 1.0
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_camera_that_is_panoramic_only_at_a_neighbouring_frame_projects_as_the_frames_camera_moved_there(kernels):
+    """Cycles keeps the frame's projection and reads only the transforms of the camera at the neighbouring frames: an
+    orthographic camera (8 pixels a unit) that is an equirectangular one at the frames before and after, standing
+    0.25 further along -x and +x then, moves the still floor by (2, 0, 2, 0) pixels, as the orthographic camera moved
+    there would."""
+    scene, settings = floor_under(ortho_camera())
+    camera = scene.camera
+    scene.vector_cameras = tuple(Camera(matrix_world=shifted(camera.matrix_world, (s, 0.0, 0.0)), type="PANO",
+                                        panorama_type="EQUIRECTANGULAR") for s in (-0.25, 0.25))
+    vector = render.render(scene, dataclasses.replace(settings, kernels=kernels)).aux["vector"]
+    np.testing.assert_allclose(vector, np.broadcast_to([2.0, 0.0, 2.0, 0.0], vector.shape), atol=1e-9)
