@@ -247,8 +247,8 @@ def sample_vector_frames(engine, depsgraph, camera_object, camera, export_camera
     `instance_keys`) whose transform differs there given Instance.vector_motion, and each whose mesh's vertices
     (read where it may deform: Deformation on, modifiers or shape keys, _object_state) differ between the frames
     given them as Instance.vector_deformation (core/integrators/passes.py with_vector_deformation maps them, a frame
-    of another vertex count taking the mesh's own, as Cycles). A panoramic camera is noted in `warnings` (Primer's
-    pass leaves its motion out)."""
+    of another vertex count taking the mesh's own, as Cycles). A panoramic camera's frames give only their transforms
+    (the core maps them through the frame's projection inverted, as Cycles' motion_pass_pre and post)."""
     scene = depsgraph.scene
     frame, subframe = scene.frame_current, scene.frame_subframe
     cameras, states = [], []
@@ -277,8 +277,6 @@ def sample_vector_frames(engine, depsgraph, camera_object, camera, export_camera
         warnings.append(f"the Vector pass: {named(unread)} may deform between frames (modifiers or shape keys) but "
                         f"ha{'s' if len(unread) == 1 else 've'} more than {DEFORM_CHECK_VERTICES} vertices, which "
                         "Primer does not read: its pass carries only the objects' transforms there")
-    if any(camera.type == "PANO" for camera in cameras):
-        warnings.append("the Vector pass of a panoramic camera is not mapped by Primer (it stays 0)")
     return tuple(cameras)
 
 

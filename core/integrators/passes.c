@@ -119,7 +119,9 @@ INLINE void uv_at(const GeometryTables *g, int64_t geometry, int64_t prim, doubl
 /* passes.vector_at for one hit of instance `object` at the world point P (on `prim` of geometry `geometry` at
  * barycentrics u, v): (before - now, now - after) on the raster and its weight 1, into out (5); 0 motion where
  * still. A deforming instance's point then is its mesh's motion attribute at the hit carried by its object's
- * transform then (Cycles' vertex motion), any other's P carried by its transform's change. */
+ * transform then (Cycles' vertex motion), any other's P carried by its transform's change; seen by the camera then
+ * through its world-to-raster transform, or a panoramic camera's projection inverted (its Window, panorama_window,
+ * times the image's size). */
 INLINE void vector_at(const PassTables *pt, const GeometryTables *g, int64_t geometry, int64_t prim, double u, double v,
                       int64_t object, const double *P, double *out)
 {
@@ -144,6 +146,13 @@ INLINE void vector_at(const PassTables *pt, const GeometryTables *g, int64_t geo
                                          + move[4 * i + 3];
         const double *R = pt->vector_raster + 16 * k;
         for (int i = 0; i < 4; i++) h[i] = ((R[4 * i] * Q[0] + R[4 * i + 1] * Q[1]) + R[4 * i + 2] * Q[2]) + R[4 * i + 3];
+        if (pt->vector_panorama != 0) {             /* (h: the point in the camera's space then) */
+            double uv[3];
+            panorama_window(h, pt->vector_window, uv);
+            raster[k][0] = uv[0] * pt->vector_size[0];
+            raster[k][1] = uv[1] * pt->vector_size[1];
+            continue;
+        }
         raster[k][0] = h[0] / h[3];
         raster[k][1] = h[1] / h[3];
     }

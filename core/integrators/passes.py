@@ -23,7 +23,8 @@ throughput there (the product of the transparent bounces' weights).
                     in raster pixels (x right, y up), the hit carried by its object's transform (Instance.
                     vector_motion), or a deforming mesh's hit its own point on the mesh then (its vertices then,
                     Instance.vector_deformation, interpolated: with_vector_deformation), and seen by the camera then
-                    (Scene.vector_cameras); the mean over the samples that
+                    (Scene.vector_cameras; a panoramic camera through the inverse of its projection, Cycles'
+                    direction_to_panorama: graph.panorama_window); the mean over the samples that
                     found a surface (a fifth channel counts them); 0 with motion blur on, as Cycles writes it
   A chain that escapes before its opaque vertex leaves the sample-0 passes 0 (Cycles' background data passes).
 - At every vertex of the chain:
@@ -250,6 +251,10 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
     ("vector_objects", ptr(F64), "(n, 2, 3, 4) VectorTables.objects"),
     ("vector_offset_before", I32, "VectorTables.offsets[0]: the motion:before attribute's first float"),
     ("vector_offset_after", I32, "VectorTables.offsets[1]"),
+    ("vector_panorama", I32, "1: a panoramic camera, whose Window (vector_window) maps each frame's camera-space "
+                             "point (vector_raster's rows 0-2) to the raster; 0: vector_raster projects"),
+    ("vector_window", F64, 8, "VectorTables.window: the panorama's numbers (graph.panorama_window)"),
+    ("vector_size", F64, 2, "VectorTables.size: the image's width and height in pixels"),
     ("aov_base", I32, "the AOVs' first channel (PassLayout.aov_base), -1: none"),
     ("world_aovs", ptr("WorldGraph"), "the world's AOV Output nodes (world_graph.compile_aovs), NULL: none written"),
 ])
@@ -295,6 +300,9 @@ def vector_fields(tables) -> dict:
                   vector_raster=np.ascontiguousarray(tables.raster, np.float64).ravel(), vector_still=tables.still,
                   vector_rows=len(tables.before), vector_offset_before=int(tables.offsets[0]),
                   vector_offset_after=int(tables.offsets[1]))
+    if tables.window:
+        fields.update(vector_panorama=1, vector_window=np.asarray(tables.window, np.float64),
+                      vector_size=np.asarray(tables.size, np.float64))
     if np.any(tables.deformed):
         fields.update(vector_deformed=np.ascontiguousarray(tables.deformed, np.int32),
                       vector_objects=np.ascontiguousarray(tables.objects, np.float64))
@@ -479,7 +487,12 @@ class VectorTables(NamedTuple):
     vertices at the neighbouring frames as the attributes VECTOR_ATTRIBUTES (with_vector_deformation), whose
     first floats sit at offsets (before, after: two ints; -1: the geometry has none); objects (n, 2, 3, 4) float64
     each instance's object-to-world transform at the frame before and after (M_before, M_after: M where still),
-    which carries those object-space positions into the world (no rows where the geometry has none)."""
+    which carries those object-space positions into the world (no rows where the geometry has none). A panoramic
+    camera (Cycles' inverse mappings): window, the frame's camera's Window numbers (render.panorama_frame), whose
+    graph.panorama_window maps a point in the camera's space (x right, y up, z forward) to its (u, v) at all three
+    frames, then (u, v) times size (width, height) is the raster; raster's rows 0-2 then hold each frame's world to
+    camera space (camera.world_to_camera, Cycles' motion_pass_pre and post). () for a perspective or orthographic
+    camera."""
 
     before: np.ndarray
     after: np.ndarray
@@ -488,6 +501,8 @@ class VectorTables(NamedTuple):
     deformed: np.ndarray = np.zeros(0, np.int32)
     objects: np.ndarray = np.zeros((0, 2, 3, 4))
     offsets: tuple = (-1, -1)
+    window: tuple = ()
+    size: tuple = (0, 0)
 
 
 # The mesh attributes (object-space positions per corner) of a deforming mesh's vertices at the frames before and
@@ -531,16 +546,30 @@ def with_vector_deformation(scene, warnings: Optional[list] = None):
     return dataclasses.replace(scene, meshes=meshes) if changed else scene
 
 
-def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, layout=None) -> VectorTables:
+def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, layout=None,
+                  window: tuple = ()) -> VectorTables:
     """The VectorTables of a scene rendered width x height with `pixel_aspect`; blurred: motion blur is on (the pass
     is 0, as Cycles writes it); layout: the geometry's attribute layout (WorldGeometry.attribute_layout), where
-    the deforming meshes' VECTOR_ATTRIBUTES sit (None: no deformation mapped). (A panoramic camera's pass stays 0:
-    Primer does not map its motion, addon/motion.py sample_vector_frames says so.)"""
+    the deforming meshes' VECTOR_ATTRIBUTES sit (None: no deformation mapped); window: a panoramic camera's Window
+    numbers (render.panorama_frame). A panoramic camera's frames are mapped by its projection's inverse (Cycles'
+    direction_to_panorama), only their transforms read from the cameras then (as Cycles' motion_pass_pre and post);
+    a perspective or orthographic camera's frames each by that frame's camera (its lens and sensor), a panoramic one
+    among them by the frame's camera moved there."""
     cameras = scene.vector_cameras or (scene.camera, scene.camera)
-    if blurred or any(camera.type == "PANO" for camera in (scene.camera, *cameras)):
+    if blurred:
         return VectorTables(np.zeros((0, 3, 4)), np.zeros((0, 3, 4)), np.zeros((3, 4, 4)), 1)
-    raster = np.stack([camera_.world_to_raster(camera, width, height, tuple(pixel_aspect))
-                       for camera in (cameras[0], scene.camera, cameras[1])])
+    frames = (cameras[0], scene.camera, cameras[1])
+    panoramic = scene.camera.type == "PANO"
+    if panoramic:
+        if len(window) != 8:
+            raise ValueError("a panoramic camera's Vector pass needs its Window numbers (render.panorama_frame)")
+        raster = np.tile(np.eye(4), (3, 1, 1))
+        for k, camera in enumerate(frames):
+            raster[k, :3] = camera_.world_to_camera(camera)
+    else:
+        frames = [camera if camera.type != "PANO"
+                  else dataclasses.replace(scene.camera, matrix_world=camera.matrix_world) for camera in frames]
+        raster = np.stack([camera_.world_to_raster(camera, width, height, tuple(pixel_aspect)) for camera in frames])
     n = len(scene.instances)
     layout = layout or {}
     offsets = tuple(int(layout[name][0]) if name in layout else -1 for name in VECTOR_ATTRIBUTES)
@@ -560,7 +589,8 @@ def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, l
             for k in range(2):
                 objects[i, k] = np.asarray(instance.vector_motion[k] if instance.vector_motion else instance.matrix,
                                            np.float64)[:3]
-    return VectorTables(moves[0], moves[1], raster, 0, deformed, objects, offsets)
+    return VectorTables(moves[0], moves[1], raster, 0, deformed, objects, offsets,
+                        tuple(float(x) for x in window) if panoramic else (), (float(width), float(height)))
 
 
 def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray, attributes=None) -> np.ndarray:
@@ -569,7 +599,9 @@ def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray, attribu
     was and will be: a deforming instance's (tables.deformed) the hit's own point on its mesh then, the
     VECTOR_ATTRIBUTES interpolated at the hit (attributes: (k, A) float64 the hits' mesh attributes,
     surface.hit_attributes) carried by its object's transform then (Cycles' primitive_motion_vector with vertex
-    motion); any other's P carried by its transform's change (M_before M^-1)."""
+    motion); any other's P carried by its transform's change (M_before M^-1). Seen by the camera then: its
+    world-to-raster transform, or a panoramic camera's projection inverted (its Window, graph.panorama_window, times
+    the image's size: Cycles' primitive_motion_vector)."""
     out = np.zeros((len(P), 5))
     out[:, 4] = 1.0
     if tables.still or len(P) == 0:
@@ -586,6 +618,10 @@ def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray, attribu
             Q = Q.copy()
             Q[deformed] = np.einsum("kij,kj->ki", tables.objects[row[deformed], k // 2], np.c_[local, np.ones(len(local))])
         h = np.c_[Q, np.ones(len(P))] @ tables.raster[k].T
+        if tables.window:                           # (h: the point in the camera's space then)
+            at.append(graph_.panorama_window(h[:, :3], np.asarray(tables.window, np.float64))[:, :2]
+                      * np.asarray(tables.size))
+            continue
         at.append(h[:, :2] / h[:, 3:4])
     out[:, 0:2] = at[0] - at[1]
     out[:, 2:4] = at[1] - at[2]

@@ -194,7 +194,9 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     if ctx.extra["pass_layout"].has("vector"):         # (the screen motion of each instance and the camera)
         ctx.extra["vector_tables"] = passes_.vector_tables(scene, settings.width, settings.height,
                                                            settings.pixel_aspect, scene.camera.shutter is not None,
-                                                           geometry.attribute_layout)
+                                                           geometry.attribute_layout,
+                                                           panorama_frame(scene.camera, settings)
+                                                           if scene.camera.type == "PANO" else ())
     # The light groups asked for: which group each light, object and the world belongs to (lightgroups.py).
     ctx.extra["light_groups"] = lightgroups.LightGroups.of(scene, settings.light_groups, lamps, lights)
     # Which lights BSDF-sampled rays can find (weighed by MIS), which the camera sees, and whether a
