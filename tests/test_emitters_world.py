@@ -14,11 +14,13 @@ import pytest
 
 from conftest import ortho_down
 from core import render
+from core.camera import Camera
+from core.camera import camera as camera_
 from core.geometry import primitives
 from core.lights import MeshEmitters, World, WorldLight
 from core.lights.base import compiled_sample
 from core.lights.emitters import solid_angle, spherical_triangle_sample
-from core.scene import Material, RenderSettings, Scene
+from core.scene import Material, Mesh, RenderSettings, Scene
 
 
 def rectangle_factor(x: float, y: float) -> float:
@@ -53,6 +55,68 @@ def test_square_emitter_lights_a_floor_by_its_form_factor(strategy, kernels):
     image = render.render(scene, settings).image
     expected = rho * L * 4.0 * rectangle_factor(side / (2 * height), side / (2 * height))
     assert image[..., :3].mean() == pytest.approx(expected, rel=0.01)
+
+
+def projected_solid_angle(points: np.ndarray, normal: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Lambert's closed form: the cosine-weighted solid angle (irradiance over radiance) of a planar polygon
+    (k, 3) seen from points (n, 3) with unit normal (3,), the polygon wholly above their horizon: (n,) float64."""
+    v = polygon[None] - points[:, None]
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    total = np.zeros(len(points))
+    for i in range(len(polygon)):
+        a, b = v[:, i], v[:, (i + 1) % len(polygon)]
+        c = np.cross(a, b)
+        c /= np.linalg.norm(c, axis=-1, keepdims=True)
+        total += np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0)) * (c @ normal)
+    return np.abs(0.5 * total)
+
+
+def look_at(eye, target) -> np.ndarray:
+    """A camera's matrix_world (4, 4) at `eye` looking at `target`, its image's x axis horizontal."""
+    eye, target = np.asarray(eye, np.float64), np.asarray(target, np.float64)
+    Z = (eye - target) / np.linalg.norm(eye - target)
+    X = np.cross([0.0, 0.0, 1.0], Z)
+    X /= np.linalg.norm(X)
+    matrix = np.eye(4)
+    matrix[:3, 0], matrix[:3, 1], matrix[:3, 2], matrix[:3, 3] = X, np.cross(Z, X), Z, eye
+    return matrix
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_a_wall_just_below_a_ceiling_lamp_gets_the_lamps_form_factor(kernels):
+    """The Cornell box's corner (its own numbers, in its units): a wall meets the ceiling 1 above a quad lamp that
+    hangs 213 to 343 from the wall. A wall point h below the lamp's plane sees the lamp nearly edge-on, and a
+    Lambert wall of albedo rho shows rho / pi L times Lambert's projected solid angle of the quad, to 0.5 %,
+    for h from 0.3 to 14. (The shadow rays towards it graze the lamp's plane at h / 300 radians; with the
+    camera 800 away, Embree's float32 hit on that plane fell short of the ray's end and the lamp shadowed itself:
+    the pixels 1 to 10 below its plane lost 5 to 55 % of their light, the cornell_box scene's dark line.)"""
+    wall_x, ceiling, lamp_z, L, rho = -556.0, 548.8, 547.8, 100.0, 0.5
+    lamp = np.array([[-343.0, 227.0, lamp_z], [-213.0, 227.0, lamp_z], [-213.0, 332.0, lamp_z],
+                     [-343.0, 332.0, lamp_z]])
+    camera = Camera(matrix_world=look_at((-278.0, -800.0, 273.0), (wall_x, 250.0, lamp_z - 6.0)), lens=3000.0,
+                    sensor_width=32.0, clip_start=1.0, clip_end=3000.0)
+    scene = Scene(camera=camera)
+    wall = scene.add_material((rho,) * 3)
+    scene.materials.append(Material(np.zeros(3), "Lamp", emission=np.full(3, L)))
+    quads = (np.array([[wall_x, 0.0, 0.0], [wall_x, 559.2, 0.0], [wall_x, 559.2, ceiling], [wall_x, 0.0, ceiling]]),
+             np.array([[wall_x, 0.0, ceiling], [wall_x, 559.2, ceiling], [0.0, 559.2, ceiling], [0.0, 0.0, ceiling]]),
+             lamp)
+    for corners, material in zip(quads, (wall, wall, len(scene.materials) - 1)):
+        scene.add_mesh(Mesh(corners, np.array([[0, 1, 2], [0, 2, 3]])), materials=np.array([material]))
+    size, fine = 8, 16
+    settings = RenderSettings(width=size, height=size, samples=64, light_sampling="light", kernels=kernels,
+                              adaptive=False)
+    image = render.render(scene, settings).image[..., 0]
+    # The closed form over each pixel (a box filter): fine x fine rays to the wall's plane.
+    ys, xs = np.mgrid[0:size * fine, 0:size * fine]
+    rays = camera_.generate_rays(camera, size, size, (xs.ravel() + 0.5) / fine, (ys.ravel() + 0.5) / fine)
+    points = rays.origins + ((wall_x - rays.origins[:, 0]) / rays.directions[:, 0])[:, None] * rays.directions
+    exact = rho / math.pi * L * projected_solid_angle(points, np.array([1.0, 0.0, 0.0]), lamp)
+    exact = exact.reshape(size, fine, size, fine).mean(axis=(1, 3))
+    below = (lamp_z - points[:, 2]).reshape(size, fine, size, fine).min(axis=(1, 3))
+    on_wall = below > 0.3                         # (every ray of the pixel meets the wall below the lamp's plane)
+    assert on_wall.sum() >= 40 and below[on_wall].min() < 1.0 and below.max() > 14.0
+    np.testing.assert_allclose(image[on_wall], exact[on_wall], rtol=5e-3)
 
 
 @pytest.mark.parametrize("kernels", ["compiled", "numpy"])

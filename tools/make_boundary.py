@@ -296,7 +296,7 @@ def light_table() -> str:
               " * A kind outside the table sends nothing. */\n"
               "INLINE void sample_light(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,\n"
               "                         const double *u, LightSample *out)\n"
-              "{\n    out->hidden = 0;\n    switch (light->kind) {\n" + samples + "    default: break;\n    }\n"
+              "{\n    out->hidden = 0;\n    out->normal[0] = out->normal[1] = out->normal[2] = 0.0;\n    switch (light->kind) {\n" + samples + "    default: break;\n    }\n"
               "    for (int c = 0; c < 3; c++) out->L[c] = out->position[c] = out->color[c] = 0.0;\n"
               "    out->distance = out->strength = out->pdf = 0.0;\n}\n"
             + "\n/* Light.hit through the table: whether a ray from O along D meets `light` before t_max (rays find emitters\n"

@@ -270,6 +270,7 @@ typedef struct {
     double time[BLOCK];                          /* its path's time in the shutter (where a moving emitter is) */
     double albedo[3][BLOCK], lambert[BLOCK];     /* the hit's one Lambert closure, where it has just that */
     double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK], color[3][BLOCK], pdf[BLOCK];
+    double light_normal[3][BLOCK];               /* the face normal of the emissive triangle sampled (else zero) */
     double origin[3][BLOCK], D[3][BLOCK], t[BLOCK], weight[BLOCK];
     double keep[BLOCK];                          /* 1: the ray can carry light */
     double f[3][BLOCK];                          /* f cos of the lane's hit's closures, for its light direction */
@@ -315,6 +316,7 @@ INLINE void store_sample(SampleBlock *b, int64_t k, const LightSample *ls)
     for (int c = 0; c < 3; c++) {
         b->L[c][k] = ls->L[c];
         b->position[c][k] = ls->position[c];
+        b->light_normal[c][k] = ls->normal[c];
     }
     b->distance[k] = ls->distance;
     b->strength[k] = ls->strength;
@@ -335,6 +337,7 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;
             sample_area(light, P, b->u[0][k] - 0.5, b->u[1][k] - 0.5, &ls);
+            ls.normal[0] = ls.normal[1] = ls.normal[2] = 0.0;   /* (a lamp: no surface to stop off) */
             store_sample(b, k, &ls);
             b->hidden[k] = 0;
         }
@@ -344,6 +347,7 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;
             sample_point(light, P, &ls);
+            ls.normal[0] = ls.normal[1] = ls.normal[2] = 0.0;
             store_sample(b, k, &ls);
             b->hidden[k] = 0;
         }
@@ -388,6 +392,7 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         double n[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, ng[3] = {b->Ng[0][k], b->Ng[1][k], b->Ng[2][k]};
         double lifted[3] = {b->lifted[0][k], b->lifted[1][k], b->lifted[2][k]};
         double position[3] = {b->position[0][k], b->position[1][k], b->position[2][k]};
+        double light_normal[3] = {b->light_normal[0][k], b->light_normal[1][k], b->light_normal[2][k]};
         /* a. N.L > 0 and Ng.L > 0 (smooth points lifted by the terminator fix leave that to their ray); a
          *    surface that lets light through from behind takes light from both sides, reached from behind
          *    by a ray from its back (no lift): where the fix lifts, the lights behind N, else behind the face
@@ -403,7 +408,8 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         /* b. The ray, from I or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
         double amount = lifts && !behind ? terminator_amount(NL, NgL, cutoff) : 0.0;
         double origin[3], D[3], t;
-        shadow_ray(P, ng, lifted, b->offset[k], amount, L, b->distance[k], position, robust, epsilon, origin, D, &t);
+        shadow_ray(P, ng, lifted, b->offset[k], amount, L, b->distance[k], position, light_normal, robust, epsilon,
+                   origin, D, &t);
         for (int c = 0; c < 3; c++) { b->origin[c][k] = origin[c]; b->D[c][k] = D[c]; }
         b->t[k] = t;
         b->weight[k] = b->strength[k] * (1.0 / samples);

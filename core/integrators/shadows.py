@@ -108,27 +108,40 @@ def error_bound(points: np.ndarray, triangle_vertices: np.ndarray) -> np.ndarray
 
 def robust_rays(points: np.ndarray, face_normals: np.ndarray, offsets: np.ndarray,
                 light_points: np.ndarray, L: np.ndarray, distance: np.ndarray,
-                reduce_t_max: bool = True) -> ShadowRays:
+                reduce_t_max: bool = True, light_normals: Optional[np.ndarray] = None) -> ShadowRays:
     """Build shadow rays with the origin pushed off the surface by its error bound.
 
     points: (n, 3) float64 hit points; face_normals: (n, 3) float64 unit, on the light's side;
     offsets: (n,) float64 from `error_bound`; light_points: (n, 3) float64; L: (n, 3) unit
     direction to the light; distance: (n,) float64, inf for a distant light.
-    reduce_t_max=False (a lecture switch) keeps the unreduced t_max = ||P_light - I||.
+    light_normals: (n, 3) float64 the unit face normal of the surface each light point lies on (an emissive
+    triangle, LightSample.normal; zero rows: none), or None where no light point lies on a surface.
+    reduce_t_max=False (a lecture switch) keeps the unreduced t_max = ||P_light - I|| (and the end on the light).
     """
     origins = points + offsets[:, None] * face_normals
     finite = np.isfinite(distance)
     if finite.all():
         w = light_points - origins
         length = np.sqrt(np.einsum("ij,ij->i", w, w))
-        directions = w / np.maximum(length, 1e-300)[:, None]
         if not reduce_t_max:
-            return ShadowRays(origins, directions, distance)
-        # Stop short of the light point by the rounding error of the float32 ray that reaches it: ulps of the
-        # largest of its coordinates, the origin's and the ray's length (a long ray that grazes an emitter
-        # would otherwise meet the emitter it aims at, a few ulps past the end).
+            return ShadowRays(origins, w / np.maximum(length, 1e-300)[:, None], distance)
+        # The rounding error of the float32 ray that reaches the light point: ulps of the largest of its
+        # coordinates, the origin's and the ray's length.
         magnitude = np.maximum(np.maximum(largest_coordinate(light_points), largest_coordinate(origins)), length)
         end_offset = ROBUST_ULPS * FLOAT32_EPSILON * magnitude
+        if light_normals is not None:
+            # A light point on an emissive triangle: the ray ends that far off its surface, along its face normal
+            # on the origin's side (as the origin leaves its own surface). Stopping short along the ray alone is
+            # not enough where the ray grazes the emitter: Embree's float32 hit on its plane moves along the ray
+            # by the rounding error over the sine of the angle (1 / sin times the end offset), so a point a few
+            # units below a ceiling lamp, hundreds of units from it, met the lamp it aims at and lost up to half
+            # its light (the cornell_box scene). Cycles instead skips the sampled triangle on the shadow ray.
+            side = np.where(np.einsum("ij,ij->i", light_normals, origins - light_points) < 0.0, -1.0, 1.0)
+            w = w + (side * end_offset)[:, None] * light_normals
+            length = np.sqrt(np.einsum("ij,ij->i", w, w))
+        directions = w / np.maximum(length, 1e-300)[:, None]
+        # Stop short of the (lifted) light point by that rounding error too (a long ray that grazes an emitter
+        # would otherwise meet the emitter it aims at, a few ulps past the end).
         return ShadowRays(origins, directions, np.maximum(length - end_offset, 0.0))
     return ShadowRays(origins, L, distance)
 

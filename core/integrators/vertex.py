@@ -496,7 +496,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
         Ng = np.where(behind[:, None], -surface.Ng[rows], Ng)
     if s.shadow_method == "robust":
         rays = shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
-                                   s.reduce_t_max)
+                                   s.reduce_t_max, None if ls.normal is None else ls.normal[rows])
     else:
         rays = shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
     # (a shadow ray carries its path's time: where moving objects block it)

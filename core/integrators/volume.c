@@ -120,7 +120,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                 double origin[1][3], D[1][3], t;
                 /* (Ray Depth: one deeper, as a shadow ray's) */
                 LightPath shadow = {PATH_SHADOW, bounce, 0, 0, 0, 0, 0, 0.0, 0.0};
-                shadow_ray(P, zero, P, 0.0, 0.0, ls.L, ls.distance, ls.position, 1, 0.0, origin[0], D[0], &t);
+                shadow_ray(P, zero, P, 0.0, 0.0, ls.L, ls.distance, ls.position, ls.normal, 1, 0.0, origin[0], D[0],
+                           &t);
                 transmit_packet(ds->transmitter, 1, origin, D, &t, &STILL_TIME, &shadow, &blockers, inside, T);
                 rays++;
             }

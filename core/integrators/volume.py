@@ -329,7 +329,8 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
             if len(rows) == 0:
                 continue
             rays = shadows.robust_rays(P[rows], unknown[rows], np.zeros(len(rows)), ls.position[rows], ls.L[rows],
-                                       ls.distance[rows], s.reduce_t_max)
+                                       ls.distance[rows], s.reduce_t_max,
+                                       None if ls.normal is None else ls.normal[rows])
             blockers = shadow_blockers(ctx, light, ls, rows)
             if light.cast_shadow:
                 shadow_paths = graph_.light_paths(len(rows), flags=graph_.PATH_SHADOW,

@@ -50,6 +50,8 @@ class LightSample(NamedTuple):
     hidden:     (n,) int64 the Ray Visibility bits (geometry.HIDDEN_FROM_*) of the object each sample is on (an
                 emissive mesh), or None: its light reaches no closure of a kind that cannot see the object
     emitter:    (n,) int64 the emissive triangle each sample is on (MeshEmitters' index), or None for other lights
+    normal:     (n, 3) float64 the unit face normal of the emissive triangle each sample is on, or None for other
+                lights: a shadow ray stops off that surface (shadows.robust_rays), not on it
     """
 
     L: np.ndarray
@@ -60,6 +62,7 @@ class LightSample(NamedTuple):
     position: np.ndarray
     hidden: Optional[np.ndarray] = None
     emitter: Optional[np.ndarray] = None
+    normal: Optional[np.ndarray] = None
 
     @property
     def irradiance(self) -> np.ndarray:

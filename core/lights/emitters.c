@@ -380,6 +380,7 @@ NOINLINE static void sample_emitters(const EmitterTables *e, const double *P, co
     for (int c = 0; c < 3; c++) {
         out->position[c] = P[c] + out->L[c] * out->distance;
         out->color[c] = e->emission[3 * i + c];
+        out->normal[c] = normal[c];
     }
 }
 

@@ -178,7 +178,7 @@ class MeshEmitters(Light):
         position = points + L * distance[:, None]
         hidden = None if self.hidden is None else self.hidden[index].astype(np.int64)
         return LightSample(L, distance, strength, np.where(ok, pdf, 0.0), self.emission[index], position, hidden,
-                           index)
+                           index, normal)
 
     def pdf_of_hits(self, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray,
                     N: Optional[np.ndarray] = None, times: Optional[np.ndarray] = None) -> np.ndarray:

@@ -15,6 +15,7 @@ INLINE void sample_light(const LightRecord *light, const LightContext *ctx, cons
                          const double *u, LightSample *out)
 {
     out->hidden = 0;
+    out->normal[0] = out->normal[1] = out->normal[2] = 0.0;
     switch (light->kind) {
     case LIGHT_POINT: point_sample(light, ctx, P, N, u, out); return;
     case LIGHT_SPOT: spot_sample(light, ctx, P, N, u, out); return;

@@ -14,6 +14,8 @@ typedef struct {
     double color[3];        /* the RGB the strength is of: the light's colour, or an emitter's radiance */
     int hidden;             /* the HIDDEN_FROM_* bits of an emitter's object (0 for other lights) */
     int64_t emitter;        /* the emissive triangle sampled (EmitterTables' index; emitters only) */
+    double normal[3];       /* that triangle's unit face normal (emitters only; zero for other lights): a shadow
+                             * ray stops off its surface (shadows.c shadow_ray) */
 } LightSample;
 
 /* Where a ray meets a light it was not aimed at (lights.base.LightHit for one ray). */
