@@ -593,3 +593,29 @@ def test_a_displacement_and_bump_bumps_over_the_unmoved_surface_alike_in_both_ke
     compiled, reference = compare_paths(scene, settings)
     # (within 1e-4: the kernels' bumped waves differ by 4.4e-5 at most with the bump over the moved surface too)
     np.testing.assert_allclose(compiled.image, reference.image, rtol=0.0, atol=1e-4)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("tilt", [30.0, 60.0])
+def test_bsdf_samples_below_the_face_are_refused_as_cycles_refuses_them(kernels, tilt):
+    """A Lambert quad of albedo rho whose shading normal leans theta from its face, alone under a world of radiance L,
+    seen from above by BSDF samples alone: a direction of N's cosine lobe below the face is no sample (Cycles'
+    bsdf_diffuse_sample, closures.sampled_across_face), so the quad is rho L (1 + cos theta) / 2, the share of the lobe
+    above the face (the projected area outside the ellipse the face's plane cuts from the disk), in both kernels;
+    those directions used to go down through the quad to the world: rho L."""
+    from core.lights.world import World
+    from core.scene import Mesh
+    theta, rho, L = math.radians(tilt), 0.5, 2.0
+    scene = Scene(camera=Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.001, 0.0), fov=math.radians(30)))
+    scene.add_material((rho, rho, rho))
+    quad = primitives.plane(20.0)
+    N = np.array([math.sin(theta), 0.0, math.cos(theta)])
+    scene.add_mesh(Mesh(quad.vertices, quad.triangles, smooth=np.ones(2, bool),
+                        corner_normals=np.broadcast_to(N, (2, 3, 3)).copy()), materials=np.array([0]))
+    scene.world = World(color=np.full(3, L), camera=True, lights=True)
+    settings = RenderSettings(width=8, height=8, samples=256, light_sampling="bsdf", kernels=kernels)
+    image = render.render(scene, settings).image[..., :3]
+    share = (1.0 + math.cos(theta)) / 2.0
+    # (each sample brings rho L or nothing: the mean of 16384 Bernoulli draws, within 4 standard deviations)
+    sigma = math.sqrt(share * (1.0 - share) / image[..., 0].size / settings.samples)
+    assert abs(image.mean() / (rho * L) - share) < 4.0 * sigma + 1e-9

@@ -49,6 +49,14 @@ SOURCES = {
                              "GPL-3.0 (the repository's licence), Franck Demongin", "Nodes/nx_color-ramp.blend",
                              "procedural: Brick, Gradient and Noise textures through a 'dynamic Color Ramp' made of "
                              "node groups of Map Range, Math and Mix nodes, and a Color Ramp (Blender 3.4)"),
+    "bmw27_studio": ("BabyYodaCoin/MinecraftServer", "5012308bbe128a6029f4fa9dd3a798ff0a0e4fe0",
+                     "Mike Pan's BMW27, the Blender Foundation's Cycles benchmark and demo file (download.blender.org/"
+                     "demo/test/BMW27.blend.zip), free to use as Blender's demo files are; this copy (saved by Blender "
+                     "2.93, textures packed) is in a repository without a licence of its own",
+                     "bmw27_gpu.blend",
+                     "a car studio (Mike Pan's BMW27): a procedural flake car paint (a Noise texture of scale 1000 "
+                     "into a Normal Map, Layer Weight mixing two Beckmann glossies), chrome, glass, a Sheen floor, "
+                     "emission-panel lights, a world colour from an RGB node, depth of field, packed textures"),
     "gltf_volume": GLTF_IO + ("tests/scenes/16_volume.blend",
                               "glTF KHR_materials_volume as Blender makes it: a Volume Absorption inside a glass "
                               "(Principled transmission) mesh, beside one without and one of zero thickness"),

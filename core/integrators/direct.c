@@ -1175,9 +1175,9 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             ClosureSample *s = sampled + lanes;
             if (!H->traced[h]) continue;
             double u[2] = {u0[h], u1[h]};
-            shader_sample(H->sd + h, H->wo + 3 * h, u, pick0[h], s);
-            if (!(s->pdf > 0.0)) continue;
             const Surface *sf = H->s + h;
+            shader_sample(H->sd + h, H->wo + 3 * h, u, pick0[h], sf->Ng, s);
+            if (!(s->pdf > 0.0)) continue;
             spawn_ray(sf->I, sf->Ng, s->wi, ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon, origin[lanes]);
             if (bsdf_is(s->kind, BSDF_FLAG_PORTAL)) portal_origin(H->sd[h].c[s->slot].p, sf->I, ds->geometry->origin, origin[lanes]);
             /* The path it carries past the bounce; Fast GI's short ray looks ao_distance far. */

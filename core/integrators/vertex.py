@@ -307,7 +307,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     light_path = graph_.light_paths(m) if light_path is None else light_path
     u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
     pick = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + 1 + dimension)[:, 0]
-    bs = materials_.sample_closures(shader.closures, wo, u, pick)
+    bs = materials_.sample_closures(shader.closures, wo, u, pick, surface.Ng)
     found = np.zeros((m, 3))
     go = np.flatnonzero((bs.pdf > 0.0) & traced)
     if len(go) == 0:

@@ -74,7 +74,12 @@ class BSDFFlags(enum.IntFlag):
                   Cycles' Filter Glossy may raise at hits after rough bounces (Cycles' bsdf_blur: GGX, Beckmann,
                   Ashikhmin-Shirley, rough glass, Chiang's and Huang's hair; core/integrators/path.py
                   filter_glossy_roughness)
-    """
+    ANY_FACE      the directions it samples are not held to the face's side (hair: Cycles gives its hair closures no
+                  face normal to test). Every other closure but STRAIGHT and SUBSURFACE ones has a sampled direction
+                  refused where it leaves on the other side of the face (the geometric normal Ng) than of its own
+                  normal, as Cycles' samplers refuse it (`dot(Ng, wo)` in bsdf_diffuse_sample, the microfacet, sheen
+                  and velvet samplers...; not in eval, where the shadow ray decides): closures.sampled_across_face
+"""
 
     REFLECTION = 1 << 0
     TRANSMISSION = 1 << 1
@@ -90,6 +95,7 @@ class BSDFFlags(enum.IntFlag):
     SUBSURFACE = 1 << 11
     PORTAL = 1 << 12
     ROUGHENS = 1 << 13
+    ANY_FACE = 1 << 14
 
 
 class BsdfSample(NamedTuple):

@@ -129,9 +129,20 @@ typedef struct {
     int slot;               /* which of the hit's closures was sampled (a BSSRDF's walk reads its parameters) */
 } ClosureSample;
 
+/* closures.sampled_across_face: whether direction wi sampled from closure c leaves on the other side of the face
+ * (Ng, facing the viewer) than of c's own normal, a sample Cycles' closures refuse (not Transparent, Ray Portal,
+ * BSSRDF or hair closures: BSDF_FLAG_ANY_FACE). */
+INLINE int sampled_across_face(const Closure *c, const double *Ng, const double *wi)
+{
+    if (bsdf_is(c->kind, BSDF_FLAG_STRAIGHT | BSDF_FLAG_SUBSURFACE | BSDF_FLAG_ANY_FACE)) return 0;
+    return (dot3(Ng, wi) > 0.0) != (dot3(c->N, wi) > 0.0);
+}
+
 /* closures.sample_closures for one hit: pick a closure by sampling weight, sample it; unless a delta,
- * weight and pdf from all closures at that direction (an OWN_WEIGHT closure its own sampled share of them). */
-INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double *u, double pick, ClosureSample *out)
+ * weight and pdf from all closures at that direction (an OWN_WEIGHT closure its own sampled share of them).
+ * Ng: the hit's face normal (facing the viewer), or NULL: a direction sampled across the face is no sample. */
+INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double *u, double pick, const double *Ng,
+                          ClosureSample *out)
 {
     double total = 0.0, running = 0.0;
     for (int k = 0; k < sd->n; k++) total += sd->c[k].sample_weight;
@@ -157,6 +168,7 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     BsdfSample s;
     bsdf_sample(c, wo, u3, &s);
     for (int j = 0; j < 3; j++) out->wi[j] = s.wi[j];
+    if (Ng != NULL && s.pdf > 0.0 && sampled_across_face(c, Ng, s.wi)) return;     /* (pdf 0, kind -1) */
     out->kind = c->kind;
     if (bsdf_is_delta(c->kind)) {
         double probability = c->sample_weight / total;
@@ -242,7 +254,7 @@ static void bsdf_rows(const BsdfArgs *a)
         c->p = a->params + CLOSURE_PARAMS * i;
         a->pdf[i] = shader_eval(&sd, wo, a->wi + 3 * i, a->f_cos + 3 * i);
         ClosureSample s;
-        shader_sample(&sd, wo, a->u + 2 * i, 0.5, &s);
+        shader_sample(&sd, wo, a->u + 2 * i, 0.5, NULL, &s);
         for (int j = 0; j < 3; j++) { a->sampled[3 * i + j] = s.wi[j]; a->sampled_weight[3 * i + j] = s.weight[j]; }
         a->sampled_pdf[i] = s.pdf;
     }

@@ -232,10 +232,24 @@ def own_weight(closures: Closures, wo: np.ndarray, wi: np.ndarray, total: np.nda
     return f_cos, pdf
 
 
-def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.ndarray) -> ClosureSample:
+def sampled_across_face(flags: int, Ng: np.ndarray, N: np.ndarray, wi: np.ndarray) -> np.ndarray:
+    """Whether directions wi (n, 3) sampled from closures of BSDFFlags `flags` with normals N (n, 3) leave on the
+    other side of the face (Ng (n, 3), facing the viewer) than of N: (n,) bool, the samples Cycles' closures refuse
+    (bsdf_diffuse_sample's `dot(Ng, wo) > 0`, the microfacet sampler's `(cos_NgO < 0) != do_refract || (cos_NO < 0)
+    != do_refract`, the sheen, velvet, translucent, toon and Ashikhmin-Shirley samplers' tests); never for Transparent,
+    Ray Portal, BSSRDF and hair closures (BSDFFlags.ANY_FACE)."""
+    if flags & (F.STRAIGHT | F.SUBSURFACE | F.ANY_FACE):
+        return np.zeros(len(wi), bool)
+    return (np.einsum("ij,ij->i", Ng, wi) > 0.0) != (np.einsum("ij,ij->i", N, wi) > 0.0)
+
+
+def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.ndarray,
+                    Ng: Optional[np.ndarray] = None) -> ClosureSample:
     """Sample a direction: choose a closure in proportion to its sampling weight (pick (n,) in [0, 1)),
     sample it with u (n, 2); then, unless it is a delta, weight and pdf from all closures at that
-    direction (one-sample MIS with the balance heuristic); an OWN_WEIGHT closure its own sampled share of them."""
+    direction (one-sample MIS with the balance heuristic); an OWN_WEIGHT closure its own sampled share of them.
+    Ng (n, 3) the hits' face normals (facing the viewer), or None: a direction sampled across the face from the
+    chosen closure's own normal is no sample (pdf 0; sampled_across_face), as in Cycles."""
     n, slots = closures.kind.shape
     total = closures.sample_weight.sum(axis=1)
     running = np.cumsum(closures.sample_weight, axis=1)
@@ -258,6 +272,10 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
         at = np.flatnonzero(kind == k)
         c = chosen[at]
         s = bsdf.sample(closures.params[at, c], closures.N[at, c], wo[at], u[at])
+        if Ng is not None:
+            across = sampled_across_face(bsdf.flags, Ng[at], closures.N[at, c], s.wi)
+            if across.any():
+                s = BsdfSample(s.wi, np.where(across[:, None], 0.0, s.weight), np.where(across, 0.0, s.pdf))
         wi[at] = s.wi
         if bsdf.is_(F.SINGULAR | F.SUBSURFACE):
             # The closure's weight, over the probability of choosing it (a BSSRDF's: the walk's start,

@@ -246,7 +246,7 @@ class ChiangHair(BSDF):
     the fibre; Cycles counts it a glossy closure (CLOSURE_BSDF_HAIR_CHIANG_ID)."""
 
     name: ClassVar[str] = "HAIR_CHIANG"
-    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLOSSY_TYPE | F.ROUGHENS
+    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLOSSY_TYPE | F.ROUGHENS | F.ANY_FACE
     # Filter Glossy caps the variances v, s and m0 (not the tilt alpha) at its roughness, as bsdf_hair_chiang_blur.
     blurred: ClassVar[tuple] = ("v", "s", "m0")
     params: ClassVar[tuple] = ("sigma_r", "sigma_g", "sigma_b", "v", "s", "m0", "alpha", "eta", "h",
@@ -366,7 +366,7 @@ class HairReflection(BSDF):
     """The Hair BSDF's Reflection component (module docstring): eval = pdf, light in front of N only."""
 
     name: ClassVar[str] = "HAIR_REFLECTION"
-    flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT
+    flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT | F.ANY_FACE
     params: ClassVar[tuple] = ("roughness_u", "roughness_v", "offset", "tangent_x", "tangent_y", "tangent_z")
 
     @classmethod
@@ -405,7 +405,7 @@ class HairTransmission(BSDF):
     """The Hair BSDF's Transmission component (module docstring): eval = pdf, light behind N only."""
 
     name: ClassVar[str] = "HAIR_TRANSMISSION"
-    flags: ClassVar[F] = F.TRANSMISSION | F.GLOSSY | F.TRANSMISSION_TYPE | F.OWN_WEIGHT
+    flags: ClassVar[F] = F.TRANSMISSION | F.GLOSSY | F.TRANSMISSION_TYPE | F.OWN_WEIGHT | F.ANY_FACE
     params: ClassVar[tuple] = HairReflection.params
 
     @classmethod

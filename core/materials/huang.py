@@ -244,7 +244,8 @@ class HuangHair(BSDF):
     weight its own (pdf 1, as Cycles)."""
 
     name: ClassVar[str] = "HAIR_HUANG"
-    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT | F.ROUGHENS
+    flags: ClassVar[F] = (F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT | F.ROUGHENS
+                          | F.ANY_FACE)
     blurred: ClassVar[tuple] = ("roughness",)     # Filter Glossy caps the roughness (bsdf_hair_huang_blur)
     params: ClassVar[tuple] = ("sigma_r", "sigma_g", "sigma_b", "roughness", "tilt", "eta", "aspect_ratio", "h",
                                "r", "tt", "trt", "x_x", "x_y", "x_z", "y_x", "y_y", "y_z", "pixel_coverage")
