@@ -433,6 +433,8 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
             exported.scene.vector_cameras = motion.sample_vector_frames(
                 engine, depsgraph, camera_object, exported.scene.camera, export.export_camera, exported.warnings,
                 exported.scene.instances, exported.instance_keys)
+            # (where the camera sees the world: its direction's motion from Blender 5.2's Cycles, before it nothing)
+            exported.settings.world_vector = tuple(bpy.app.version[:2]) >= (5, 2)
         record.export_seconds = time.perf_counter() - start
         record.meshes_read = exported.meshes_read
         record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))

@@ -353,3 +353,63 @@ def test_a_camera_that_is_panoramic_only_at_a_neighbouring_frame_projects_as_the
                                         panorama_type="EQUIRECTANGULAR") for s in (-0.25, 0.25))
     vector = render.render(scene, dataclasses.replace(settings, kernels=kernels)).aux["vector"]
     np.testing.assert_allclose(vector, np.broadcast_to([2.0, 0.0, 2.0, 0.0], vector.shape), atol=1e-9)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_where_an_equirectangular_camera_sees_the_world_it_moves_by_the_cameras_turn_alone_from_blender_5_2(kernels):
+    """Blender 5.2's Cycles writes the Vector pass where a camera ray sees the world too (camera_motion_vector_direction:
+    the direction's place at infinity, RenderSettings.world_vector): a full equirectangular camera 32 pixels around
+    with nothing around it, turning by a = 2 (2 pi / 32) a frame about its up axis and sliding 5 a frame (which moves
+    nothing at infinity), moves every pixel by (-2, 0, -2, 0) within 1e-9 but in the two columns each side of the
+    seam; Cycles before 5.2 (world_vector off) writes 0 there."""
+    a = 2.0 * 2.0 * math.pi / 32.0
+    camera = Camera(matrix_world=turned_about_z(0.0), type="PANO", panorama_type="EQUIRECTANGULAR")
+    scene = Scene(camera=camera)
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.box((0.1, 0.1, 0.1), center=(0.0, 0.0, -1000.0)), materials=[0])   # (out of sight)
+    scene.vector_cameras = tuple(dataclasses.replace(camera, matrix_world=shifted(turned_about_z(t), (5 * t, 0, 0)))
+                                 for t in (-a, a))
+    settings = RenderSettings(width=32, height=16, samples=2, passes=("vector",), kernels=kernels, world_vector=True)
+    vector = render.render(scene, settings).aux["vector"]
+    np.testing.assert_allclose(vector[:, 2:30], np.broadcast_to([-2.0, 0.0, -2.0, 0.0], (16, 28, 4)), atol=1e-9)
+    np.testing.assert_allclose(vector[:, :2, 0], 30.0, atol=2.0 + 1e-9)      # (before: across the seam)
+    before = render.render(scene, dataclasses.replace(settings, world_vector=False)).aux["vector"]
+    assert not before.any()
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_where_a_perspective_camera_sees_the_world_its_roll_turns_each_pixel_scaled_by_its_rays_depth(kernels):
+    """Blender 5.2's Cycles maps a perspective camera's world direction through the 3 x 3 of its world-to-raster
+    transform without dividing by the depth (transform_perspective_direction): a camera (90 degrees across 16 x 16
+    pixels, f = 8 pixels) rolling by b = 0.1 rad a frame about its axis writes, at the pixel p from the centre (the
+    ray's direction d = (p, f) / |(p, f)|, its depth f / |(p, f)|), (R(b) p - p, p - R(-b) p) f / |(p, f)| within
+    1e-9 (R(b) p: where that direction stood a frame earlier), and the still part is the same at every frame."""
+    b = 0.1
+    camera = Camera.look_at(np.array([0.0, 0.0, 3.0]), np.array([0.0, 0.0, 10.0]), up=(0.0, 1.0, 0.0),
+                            fov=math.radians(90))
+
+    def rolled(angle):
+        c, s = math.cos(angle), math.sin(angle)
+        out = np.array(camera.matrix_world, np.float64)
+        out[:3, :3] = out[:3, :3] @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return out
+
+    scene = Scene(camera=camera)
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.box((0.1, 0.1, 0.1), center=(0.0, 0.0, -1000.0)), materials=[0])   # (behind it)
+    scene.vector_cameras = tuple(dataclasses.replace(camera, matrix_world=rolled(t)) for t in (-b, b))
+    settings = RenderSettings(width=16, height=16, samples=1, passes=("vector",), kernels=kernels, world_vector=True,
+                              jitter=False)
+    vector = render.render(scene, settings).aux["vector"]
+    f = 8.0
+    x, y = np.meshgrid(np.arange(16) + 0.5 - 8.0, 8.0 - (np.arange(16) + 0.5))     # (raster y up, row 0 on top)
+    depth = f / np.sqrt(x * x + y * y + f * f)
+
+    def turn(angle):
+        c, s = math.cos(angle), math.sin(angle)
+        return np.stack([c * x - s * y, s * x + c * y], axis=-1)
+
+    p = np.stack([x, y], axis=-1)
+    expected = np.concatenate([turn(b) - p, p - turn(-b)], axis=-1) * depth[..., None]
+    assert np.abs(expected).max() > 0.5
+    np.testing.assert_allclose(vector, expected, atol=1e-9)

@@ -162,6 +162,39 @@ INLINE void vector_at(const PassTables *pt, const GeometryTables *g, int64_t geo
     }
 }
 
+/* passes.world_vector_at for one camera ray of unit direction D that sees the world (Blender 5.2's Cycles,
+ * camera_motion_vector_direction): (before - now, now - after) of the direction's place at infinity and its weight 1,
+ * into out (5): each frame's world-to-camera rotation (vector_raster's 3 x 3), through a panoramic camera's
+ * projection inverted (times the image's size), else the x and y rows of the world-to-raster's 3 x 3, undivided. */
+INLINE void world_vector_at(const PassTables *pt, const double *D, double *out)
+{
+    for (int c = 0; c < 4; c++) out[c] = 0.0;
+    out[4] = 1.0;
+    if (pt->vector_still != 0 || pt->vector_before == NULL) return;
+    double n = sqrt(dot3(D, D)), d[3];
+    for (int i = 0; i < 3; i++) d[i] = D[i] / (n > 1e-300 ? n : 1e-300);
+    double raster[3][2];
+    for (int k = 0; k < 3; k++) {
+        const double *R = pt->vector_raster + 16 * k;
+        double h[4];
+        for (int i = 0; i < 3; i++) h[i] = (R[4 * i] * d[0] + R[4 * i + 1] * d[1]) + R[4 * i + 2] * d[2];
+        h[3] = 1.0;
+        if (pt->vector_panorama != 0) {             /* (h: the direction in the camera's space then) */
+            double uv[3];
+            panorama_window(h, pt->vector_window, uv);
+            raster[k][0] = uv[0] * pt->vector_size[0];
+            raster[k][1] = uv[1] * pt->vector_size[1];
+            continue;
+        }
+        raster[k][0] = h[0];
+        raster[k][1] = h[1];
+    }
+    for (int c = 0; c < 2; c++) {
+        out[c] = raster[0][c] - raster[1][c];
+        out[2 + c] = raster[1][c] - raster[2][c];
+    }
+}
+
 /* passes.ambient_occlusion for one hit: what a cosine-distributed ray about N carries back through transparent
  * surfaces within ao_distance (out, 3), 0 where it leaves below the face. */
 INLINE void ambient_occlusion(const LanePasses *lp, const Surface *s, int64_t pixel, int64_t sample, double seed,
@@ -264,8 +297,8 @@ NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, 
 
 /* passes.along_ray for one ray of lane `lane`'s camera chain, with the chain's throughput there: from O along the
  * unit D to t (its hit where `hit`, else where it escapes): the lamps with extent the camera sees that it passes, the
- * world where it escapes, and where it escapes with the data passes not done, the world's shader AOVs and sample 0's
- * back to 0. */
+ * world where it escapes, and where it escapes with the data passes not done, the world's shader AOVs, the
+ * direction's motion (Blender 5.2's Vector pass: world_vector_at) and sample 0's back to 0. */
 INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t lane, int64_t sample,
                              const double *throughput, const double *O, const double *D, int hit, double t,
                              const VolumeStack *inside)
@@ -311,6 +344,12 @@ INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t l
         /* (the world's AOV Output nodes: Cycles' svm_node_aov_check on a camera path not yet done, unweighed) */
         LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
         world_graph_aovs(pt->world_aovs, D, &camera, lp->values[lane] + pt->aov_base);
+    }
+    if (pt->offset[PASS_VECTOR] >= 0 && pt->vector_world != 0 && pt->vector_still == 0 && !lp->done[lane]) {
+        /* (Blender 5.2's Cycles: film_write_data_passes_background writes the direction's motion, weight 1) */
+        double motion[5];
+        world_vector_at(pt, D, motion);
+        pass_add(lp, lane, PASS_VECTOR, motion, NULL);
     }
     if (!lp->done[lane] && sample == 0) {
         pass_set(lp, lane, PASS_POSITION, NULL);

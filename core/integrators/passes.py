@@ -25,7 +25,10 @@ throughput there (the product of the transparent bounces' weights).
                     Instance.vector_deformation, interpolated: with_vector_deformation), and seen by the camera then
                     (Scene.vector_cameras; a panoramic camera through the inverse of its projection, Cycles'
                     direction_to_panorama: graph.panorama_window); the mean over the samples that
-                    found a surface (a fifth channel counts them); 0 with motion blur on, as Cycles writes it
+                    found a surface (a fifth channel counts them); 0 with motion blur on, as Cycles writes it.
+                    Where the chain escapes before its opaque-enough vertex, nothing (Cycles before Blender 5.2), or
+                    with VectorTables.world (Blender 5.2's Cycles, camera_motion_vector_direction) the motion of the
+                    ray's direction as the camera turns: world_vector_at, counted as a sample
   A chain that escapes before its opaque vertex leaves the sample-0 passes 0 (Cycles' background data passes).
 - At every vertex of the chain:
     diffuse_color, glossy_color, transmission_color   throughput times the sum over the closures of their weight
@@ -255,6 +258,7 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
                              "point (vector_raster's rows 0-2) to the raster; 0: vector_raster projects"),
     ("vector_window", F64, 8, "VectorTables.window: the panorama's numbers (graph.panorama_window)"),
     ("vector_size", F64, 2, "VectorTables.size: the image's width and height in pixels"),
+    ("vector_world", I32, "VectorTables.world: 1 the rays that see the world write their direction's motion"),
     ("aov_base", I32, "the AOVs' first channel (PassLayout.aov_base), -1: none"),
     ("world_aovs", ptr("WorldGraph"), "the world's AOV Output nodes (world_graph.compile_aovs), NULL: none written"),
 ])
@@ -299,7 +303,7 @@ def vector_fields(tables) -> dict:
                   vector_after=np.ascontiguousarray(tables.after, np.float64),
                   vector_raster=np.ascontiguousarray(tables.raster, np.float64).ravel(), vector_still=tables.still,
                   vector_rows=len(tables.before), vector_offset_before=int(tables.offsets[0]),
-                  vector_offset_after=int(tables.offsets[1]))
+                  vector_offset_after=int(tables.offsets[1]), vector_world=int(tables.world))
     if tables.window:
         fields.update(vector_panorama=1, vector_window=np.asarray(tables.window, np.float64),
                       vector_size=np.asarray(tables.size, np.float64))
@@ -451,7 +455,8 @@ def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O:
     escape): the lamps with extent they pass and what the media along them emit (emission: a medium the camera
     sees is Cycles' Emission, film_write_volume_emission on a path with no pass yet), the world where they escape
     (environment), and where they escape with the data passes not done, the world's shader AOVs (world_aovs) and
-    sample 0's position, ids and depth back to 0. stretch: the media the rays cross (core/volumes Stretch, k rows), or None: the lamps and the world keep what
+    sample 0's position, ids and depth back to 0 (and with VectorTables.world the direction's motion:
+    world_vector_at). stretch: the media the rays cross (core/volumes Stretch, k rows), or None: the lamps and the world keep what
     they let through over their distance, as in Combined."""
     if len(owner) == 0:
         return
@@ -473,6 +478,10 @@ def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O:
         # (Cycles' svm_node_aov_check: a camera path before its opaque-enough vertex; not weighed by the throughput)
         dp.values[owner[open_], dp.layout.aov_base:dp.layout.aov_base + dp.layout.aov_channels] += \
             world_graph.aovs_along(program, D[open_], dp.layout.aov_channels)
+    tables = ctx.extra.get("vector_tables")
+    if dp.layout.has("vector") and len(open_) and tables is not None and tables.world and not tables.still:
+        # (Blender 5.2's Cycles: film_write_data_passes_background writes the direction's motion, with weight 1)
+        dp.add("vector", owner[open_], world_vector_at(tables, D[open_]))
     gone = owner[open_][dp.first[owner[open_]]]
     for name in ("position", "object_index", "material_index", "z_depth"):
         dp.set(name, gone, 0.0)
@@ -492,7 +501,8 @@ class VectorTables(NamedTuple):
     graph.panorama_window maps a point in the camera's space (x right, y up, z forward) to its (u, v) at all three
     frames, then (u, v) times size (width, height) is the raster; raster's rows 0-2 then hold each frame's world to
     camera space (camera.world_to_camera, Cycles' motion_pass_pre and post). () for a perspective or orthographic
-    camera."""
+    camera. world: 1 where the camera rays that see the world write the motion of their direction
+    (world_vector_at: Blender 5.2's Cycles), 0 where they write nothing (Cycles before)."""
 
     before: np.ndarray
     after: np.ndarray
@@ -503,6 +513,7 @@ class VectorTables(NamedTuple):
     offsets: tuple = (-1, -1)
     window: tuple = ()
     size: tuple = (0, 0)
+    world: int = 0
 
 
 # The mesh attributes (object-space positions per corner) of a deforming mesh's vertices at the frames before and
@@ -547,11 +558,12 @@ def with_vector_deformation(scene, warnings: Optional[list] = None):
 
 
 def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, layout=None,
-                  window: tuple = ()) -> VectorTables:
+                  window: tuple = (), world: bool = False) -> VectorTables:
     """The VectorTables of a scene rendered width x height with `pixel_aspect`; blurred: motion blur is on (the pass
     is 0, as Cycles writes it); layout: the geometry's attribute layout (WorldGeometry.attribute_layout), where
     the deforming meshes' VECTOR_ATTRIBUTES sit (None: no deformation mapped); window: a panoramic camera's Window
-    numbers (render.panorama_frame). A panoramic camera's frames are mapped by its projection's inverse (Cycles'
+    numbers (render.panorama_frame); world: the rays that see the world write their direction's motion
+    (RenderSettings.world_vector, VectorTables.world). A panoramic camera's frames are mapped by its projection's inverse (Cycles'
     direction_to_panorama), only their transforms read from the cameras then (as Cycles' motion_pass_pre and post);
     a perspective or orthographic camera's frames each by that frame's camera (its lens and sensor), a panoramic one
     among them by the frame's camera moved there."""
@@ -590,7 +602,8 @@ def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool, l
                 objects[i, k] = np.asarray(instance.vector_motion[k] if instance.vector_motion else instance.matrix,
                                            np.float64)[:3]
     return VectorTables(moves[0], moves[1], raster, 0, deformed, objects, offsets,
-                        tuple(float(x) for x in window) if panoramic else (), (float(width), float(height)))
+                        tuple(float(x) for x in window) if panoramic else (), (float(width), float(height)),
+                        int(bool(world)))
 
 
 def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray, attributes=None) -> np.ndarray:
@@ -623,6 +636,31 @@ def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray, attribu
                       * np.asarray(tables.size))
             continue
         at.append(h[:, :2] / h[:, 3:4])
+    out[:, 0:2] = at[0] - at[1]
+    out[:, 2:4] = at[1] - at[2]
+    return out
+
+
+def world_vector_at(tables: VectorTables, D: np.ndarray) -> np.ndarray:
+    """The Vector pass's value where camera rays of directions D (k, 3) float64 see the world (Blender 5.2's Cycles,
+    camera_motion_vector_direction): (before - now, now - after) of the direction's place at infinity, then 1 (its
+    weight): (k, 5) float64. Only the camera's turn moves it: each frame's world-to-camera rotation (tables.raster's
+    3 x 3), a panoramic camera's through its projection inverted (times the image's size, as vector_at); a
+    perspective or orthographic camera's the x and y rows of its world-to-raster's 3 x 3 times D, not divided by the
+    depth (so Cycles writes it: transform_perspective_direction)."""
+    out = np.zeros((len(D), 5))
+    out[:, 4] = 1.0
+    if tables.still or len(D) == 0:
+        return out
+    D = np.asarray(D, np.float64)
+    D = D / np.maximum(np.linalg.norm(D, axis=1, keepdims=True), 1e-300)
+    at = []
+    for k in range(3):
+        h = D @ np.asarray(tables.raster[k], np.float64)[:3, :3].T
+        if tables.window:                           # (h: the direction in the camera's space then)
+            at.append(graph_.panorama_window(h, np.asarray(tables.window, np.float64))[:, :2] * np.asarray(tables.size))
+        else:
+            at.append(h[:, :2])
     out[:, 0:2] = at[0] - at[1]
     out[:, 2:4] = at[1] - at[2]
     return out

@@ -912,6 +912,7 @@ struct PassTables {
     int32_t vector_panorama;                /* 1: a panoramic camera, whose Window (vector_window) maps each frame's camera-space point (vector_raster's rows 0-2) to the raster; 0: vector_raster projects */
     double vector_window[8];                /* VectorTables.window: the panorama's numbers (graph.panorama_window) */
     double vector_size[2];                  /* VectorTables.size: the image's width and height in pixels */
+    int32_t vector_world;                   /* VectorTables.world: 1 the rays that see the world write their direction's motion */
     int32_t aov_base;                       /* the AOVs' first channel (PassLayout.aov_base), -1: none */
     const WorldGraph *world_aovs;           /* the world's AOV Output nodes (world_graph.compile_aovs), NULL: none written */
 };
@@ -1356,7 +1357,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
-    if (strcmp(name, "PassTables") == 0) return UINT64_C(7197474529003466092);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(1559034948338915945);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);

@@ -196,7 +196,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                                            settings.pixel_aspect, scene.camera.shutter is not None,
                                                            geometry.attribute_layout,
                                                            panorama_frame(scene.camera, settings)
-                                                           if scene.camera.type == "PANO" else ())
+                                                           if scene.camera.type == "PANO" else (),
+                                                           settings.world_vector)
     # The light groups asked for: which group each light, object and the world belongs to (lightgroups.py).
     ctx.extra["light_groups"] = lightgroups.LightGroups.of(scene, settings.light_groups, lamps, lights)
     # Which lights BSDF-sampled rays can find (weighed by MIS), which the camera sees, and whether a

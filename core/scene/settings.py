@@ -37,6 +37,9 @@ class RenderSettings:
 
     pass_alpha_threshold: the view layer's Alpha Threshold: the first surface of a camera path at least this opaque
         (1 - mean transparency) holds the data passes (Normal, UV, ...; 0: the first surface), as Cycles.
+    world_vector: where a camera path sees the world, the Vector pass holds the motion of its direction as the camera
+        turns (Blender 5.2's Cycles, camera_motion_vector_direction; core/integrators/passes.py world_vector_at),
+        not nothing (Cycles before 5.2, the default).
     transparent_glass: Film > Transparent Glass's Roughness Threshold with a transparent film (-1: off): a camera
         path keeps seeing the film clear through glass whose lobe is at most that rough, so the world behind glass is
         alpha, not colour (Cycles' LABEL_TRANSMIT_TRANSPARENT: alpha_x alpha_y <= threshold^4).
@@ -127,6 +130,7 @@ class RenderSettings:
     exposure: float = 1.0
     transparent_glass: float = -1.0
     pass_alpha_threshold: float = 0.5
+    world_vector: bool = False
     jitter: bool = True
     light_samples: int = 4
     shadow_method: str = "robust"
