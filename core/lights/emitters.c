@@ -258,7 +258,8 @@ INLINE void spherical_triangle_sample(const double *P, const double *V, const do
     for (int c = 0; c < 3; c++) perp[c] = C[c] - ca * A[c];
     double lp = at_least(sqrt(dot3(perp, perp)), 1e-300);
     double C_hat[3];
-    for (int c = 0; c < 3; c++) C_hat[c] = q * A[c] + sqrt(at_least(1.0 - q * q, 0.0)) * (perp[c] / lp);
+    double sin_q = sqrt(at_least(1.0 - q * q, 0.0));      /* (once, not per axis) */
+    for (int c = 0; c < 3; c++) C_hat[c] = q * A[c] + sin_q * (perp[c] / lp);
     /* 2. A point on the arc from B to C' at height u1. */
     double cb = dot3(C_hat, B);
     double z = 1.0 - u[1] * (1.0 - cb);
@@ -266,7 +267,8 @@ INLINE void spherical_triangle_sample(const double *P, const double *V, const do
     for (int c = 0; c < 3; c++) wb[c] = C_hat[c] - cb * B[c];
     double lw = at_least(sqrt(dot3(wb, wb)), 1e-300);
     double Lr[3];
-    for (int c = 0; c < 3; c++) Lr[c] = z * B[c] + sqrt(at_least(1.0 - z * z, 0.0)) * (wb[c] / lw);
+    double sin_z = sqrt(at_least(1.0 - z * z, 0.0));
+    for (int c = 0; c < 3; c++) Lr[c] = z * B[c] + sin_z * (wb[c] / lw);
     unit3(Lr, L);
     /* 3. The distance to the planar triangle along L. */
     double e1[3], e2[3], n[3], to_V[3];
