@@ -341,6 +341,13 @@ def test_a_quad_lamps_two_triangles_are_picked_half_and_half_everywhere(sides):
         assert (compiled_pick_probability(emitters, P, N, index) == 0.5).all()
     other = scattered_emitters(2, 33).tree.nodes
     assert not twins(other[1:2], other[2:3]).any()
+    # (the build decides it once per inner node, into the TWINS field both kernels' walks read)
+    from core.lights.light_tree import TWINS
+    assert nodes[0, TWINS] == 1.0 and other[0, TWINS] == 0.0
+    many = scattered_emitters(64, 34).tree.nodes
+    inner = np.flatnonzero(many[:, RIGHT] >= 0)
+    left, right = many[inner, LEFT].astype(np.int64), many[inner, RIGHT].astype(np.int64)
+    assert (many[inner, TWINS] == twins(many[left], many[right])).all() and (many[many[:, RIGHT] < 0, TWINS] == 0).all()
 
 
 def test_a_turned_quad_lamps_irradiance_is_lamberts():

@@ -1159,15 +1159,15 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
     int ao[PACKET];                              /* 1: Fast GI's short ray (fast_gi_ray) */
     double t_max[PACKET];
     /* The hits' sample points (sobol.sample_2d, the same numbers) all at once in SIMD lanes: each hit's direction
-     * (u) and the number that picks its closure (pick; its second coordinate unused). */
+     * (u) and the number that picks its closure (pick: the first coordinate alone, its second unused). */
     uint32_t key_pixel[BLOCK], key_index[BLOCK];
-    double u0[BLOCK], u1[BLOCK], pick0[BLOCK], pick1[BLOCK];
+    double u0[BLOCK], u1[BLOCK], pick0[BLOCK];
     for (int64_t h = 0; h < H->m; h++) {
         key_pixel[h] = (uint32_t)H->pixel[h];
         key_index[h] = (uint32_t)H->sample[h];
     }
     sample_lanes(H->m, stream, key_pixel, key_index, u0, u1);
-    sample_lanes(H->m, pick_stream, key_pixel, key_index, pick0, pick1);
+    sample_lanes_x(H->m, pick_stream, key_pixel, key_index, pick0);
     int lanes = 0;
     for (int64_t h = 0; h <= H->m; h++) {
         if (h < H->m) {

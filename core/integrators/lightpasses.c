@@ -24,6 +24,7 @@ INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *
                         double shares[PASS_KINDS][3])
 {
     double total[3] = {0.0, 0.0, 0.0};
+    int kinds = 0;                      /* (bit p: some closure of kind p added to shares[p]) */
     for (int p = 0; p < PASS_KINDS; p++) shares[p][0] = shares[p][1] = shares[p][2] = 0.0;
     for (int k = 0; k < sd->n; k++) {
         const Closure *c = sd->c + k;
@@ -35,6 +36,19 @@ INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *
         if (term != 1.0)
             for (int j = 0; j < 3; j++) value[j] *= term;
         for (int j = 0; j < 3; j++) shares[p][j] += c->weight[j] * value[j];
+        kinds |= 1 << p;
+    }
+    if (kinds != 0 && (kinds & (kinds - 1)) == 0) {
+        /* One kind alone (every hit of one Lambert closure): its row is the total, so x / x is 1 where x is finite and
+         * above 0, and the other rows 0 / x are +0: the same numbers without the divisions (else: divided). */
+        int p = 0;
+        while (!(kinds & (1 << p))) p++;
+        double *row = shares[p];
+        if (row[0] >= 0.0 && row[1] >= 0.0 && row[2] >= 0.0 && row[0] < INFINITY && row[1] < INFINITY
+            && row[2] < INFINITY) {
+            for (int j = 0; j < 3; j++) row[j] = row[j] != 0.0 ? 1.0 : 0.0;
+            return;
+        }
     }
     for (int p = 0; p < PASS_KINDS; p++)
         for (int j = 0; j < 3; j++) total[j] += shares[p][j];

@@ -407,11 +407,13 @@ INLINE void add_light_passes(const BlockHits *H, PathWork *work)
     for (int64_t h = 0; h < H->m; h++) {
         double *out = work->light[H->lane[h]];
         const double *tp = H->throughput + 3 * h;
-        for (int p = 0; p < PASS_KINDS; p++)
-            for (int c = 0; c < 3; c++) {
-                if (H->bounce[h] == 0) out[3 * p + c] += tp[c] * H->parts[h][p][c];
-                else out[3 * (PASS_KINDS + p) + c] += tp[c] * H->L[3 * h + c] * H->shares[h][p][c];
-            }
+        if (H->bounce[h] == 0) {                /* (the branch once per hit, not per channel: the same sums) */
+            for (int p = 0; p < PASS_KINDS; p++)
+                for (int c = 0; c < 3; c++) out[3 * p + c] += tp[c] * H->parts[h][p][c];
+        } else {
+            for (int p = 0; p < PASS_KINDS; p++)
+                for (int c = 0; c < 3; c++) out[3 * (PASS_KINDS + p) + c] += tp[c] * H->L[3 * h + c] * H->shares[h][p][c];
+        }
     }
 }
 

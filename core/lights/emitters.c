@@ -20,7 +20,7 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 }
 
 /* light_tree.py: the tree's node rows (NODE_FIELDS doubles each). */
-#define TREE_FIELDS 18
+#define TREE_FIELDS 19
 #define TREE_AXIS 6
 #define TREE_ENERGY 11
 #define TREE_LEFT 12
@@ -29,12 +29,11 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 #define TREE_SIN_O 15
 #define TREE_COS_E 16
 #define TREE_COS_EO 17
+#define TREE_TWINS 18
 /* light_tree.CLAMP: the upper bound's distance is at least this share of the node's diagonal. */
 #define TREE_CLAMP 0.25
 /* light_tree.HORIZON: how far above P's tangent plane a box must lie, a share of its distance and size. */
 #define TREE_HORIZON 1e-6
-/* light_tree.TWIN_TOLERANCE: how alike two children must be to be walked as twins (light_tree_twins). */
-#define TREE_TWIN_TOLERANCE 1e-6
 
 /* light_tree.importance for one node row seen from P with normal N (zero: unknown): the upper and lower bounds
  * of what it sends P, energy x the cosine bounds at the receiver and the emitter / distance^2 (Cycles'
@@ -124,23 +123,6 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
     *lower = node[TREE_ENERGY] / (far * far) * (cos_incidence_least * cos_outgoing_least);
 }
 
-/* light_tree.twins for one inner node's children rows: whether they are alike to within light_tree.TWIN_TOLERANCE in
- * all that their importance reads (box, cone axis and angles, energy; both leaves or both inner nodes), as the two
- * triangles of a quad lamp are. Then the walk gives each 1/2 wherever P is and skips both importances: what they
- * would have given, to within that tolerance, and unbiased all the same (the same 1/2 in pick and pick_probability). */
-INLINE int light_tree_twins(const double *left, const double *right)
-{
-    double size = 0.0;
-    for (int c = 0; c < 3; c++) size = size + (left[3 + c] - left[c]) + (right[3 + c] - right[c]);
-    double box = TREE_TWIN_TOLERANCE * size;
-    double energy = TREE_TWIN_TOLERANCE * (left[TREE_ENERGY] + right[TREE_ENERGY]);
-    int alike = ((left[TREE_RIGHT] < 0.0) == (right[TREE_RIGHT] < 0.0))
-                & (fabs(left[TREE_ENERGY] - right[TREE_ENERGY]) <= energy);
-    for (int f = 0; f < 6; f++) alike &= fabs(left[f] - right[f]) <= box;
-    for (int f = TREE_AXIS; f < TREE_ENERGY; f++) alike &= fabs(left[f] - right[f]) <= TREE_TWIN_TOLERANCE;
-    return alike;
-}
-
 /* light_tree.py's rules (EmitterTables.rule). */
 #define TREE_CYCLES 0
 #define TREE_UPPER 1
@@ -154,7 +136,10 @@ INLINE double light_tree_branch_left(const EmitterTables *e, const double *node,
     const double *left = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
     const double *right = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
     if (e->rule == TREE_POWER) return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
-    if (light_tree_twins(left, right)) return 0.5;
+    /* Twins (light_tree.twins, decided once at the build: the node's TWINS field): 1/2 each wherever P is, as their
+     * importances would give to within light_tree.TWIN_TOLERANCE (the two triangles of a quad lamp), and unbiased all
+     * the same (the same 1/2 in pick and pick_probability); both importances skipped. */
+    if (node[TREE_TWINS] != 0.0) return 0.5;
     double upper_left, lower_left = 0.0, upper_right, lower_right = 0.0;
     int cycles = e->rule == TREE_CYCLES;
     light_tree_importance(left, P, N, &upper_left, cycles ? &lower_left : NULL);
@@ -273,7 +258,8 @@ INLINE void spherical_triangle_sample(const double *P, const double *V, const do
     for (int c = 0; c < 3; c++) perp[c] = C[c] - ca * A[c];
     double lp = at_least(sqrt(dot3(perp, perp)), 1e-300);
     double C_hat[3];
-    for (int c = 0; c < 3; c++) C_hat[c] = q * A[c] + sqrt(at_least(1.0 - q * q, 0.0)) * (perp[c] / lp);
+    double sin_q = sqrt(at_least(1.0 - q * q, 0.0));      /* (once, not per axis) */
+    for (int c = 0; c < 3; c++) C_hat[c] = q * A[c] + sin_q * (perp[c] / lp);
     /* 2. A point on the arc from B to C' at height u1. */
     double cb = dot3(C_hat, B);
     double z = 1.0 - u[1] * (1.0 - cb);
@@ -281,7 +267,8 @@ INLINE void spherical_triangle_sample(const double *P, const double *V, const do
     for (int c = 0; c < 3; c++) wb[c] = C_hat[c] - cb * B[c];
     double lw = at_least(sqrt(dot3(wb, wb)), 1e-300);
     double Lr[3];
-    for (int c = 0; c < 3; c++) Lr[c] = z * B[c] + sqrt(at_least(1.0 - z * z, 0.0)) * (wb[c] / lw);
+    double sin_z = sqrt(at_least(1.0 - z * z, 0.0));
+    for (int c = 0; c < 3; c++) Lr[c] = z * B[c] + sin_z * (wb[c] / lw);
     unit3(Lr, L);
     /* 3. The distance to the planar triangle along L. */
     double e1[3], e2[3], n[3], to_V[3];
@@ -316,13 +303,14 @@ INLINE void triangle_area_sample(const double *P, const double *V, const double 
 /* Whether the triangle uses solid-angle sampling from P: its longest edge^2 > delta^2, delta = h / (2 A). */
 INLINE int emitter_spherical(const double *V, double height, double area)
 {
-    double longest = 0.0;
-    for (int k = 0; k < 3; k++) {
-        const double *a = V + 3 * k, *b = V + 3 * ((k + 1) % 3);
-        double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-        double l = dot3(e, e);
-        if (l > longest) longest = l;
-    }
+    /* (the three edges written out: no index arithmetic, the same numbers in the same order) */
+    double e0[3] = {V[3] - V[0], V[4] - V[1], V[5] - V[2]};
+    double e1[3] = {V[6] - V[3], V[7] - V[4], V[8] - V[5]};
+    double e2[3] = {V[0] - V[6], V[1] - V[7], V[2] - V[8]};
+    double l0 = dot3(e0, e0), l1 = dot3(e1, e1), l2 = dot3(e2, e2);
+    double longest = l0 > 0.0 ? l0 : 0.0;
+    longest = l1 > longest ? l1 : longest;
+    longest = l2 > longest ? l2 : longest;
     double delta = height / (2.0 * area);
     return longest > delta * delta;
 }

@@ -52,8 +52,9 @@ measured, and a render of the bench room 12 times noisier (docs/performance.md, 
 
 Leaves hold one triangle each. The tree is flat arrays, the same for Python and C (emitters.c):
 nodes (k, NODE_FIELDS) float64, rows [lo (3), hi (3), axis (3), theta_o, theta_e, energy, left, right,
-cos theta_o, sin theta_o, cos theta_e, cos(theta_e - theta_o) (2 where theta_o > theta_e)] (the importance works
-in cosines: no trigonometry per step);
+cos theta_o, sin theta_o, cos theta_e, cos(theta_e - theta_o) (2 where theta_o > theta_e), twins (1 where an
+inner node's two children are `twins`, else 0)] (the importance works in cosines: no trigonometry per step; whether
+two children are twins depends on the tree alone, so it is decided once, at the build);
 an inner node's children are rows left and right; a leaf has left = -1 - its triangle, right = -1.
 Each triangle's path from the root is `depth` steps, bit l of `path` the side (1: right) at step l, so
 that `pick_probability` (the MIS pdf of a BSDF ray that hits the triangle) multiplies the same branch
@@ -67,8 +68,8 @@ from dataclasses import dataclass
 import numpy as np
 
 LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT = 0, 3, 6, 9, 10, 11, 12, 13
-COS_O, SIN_O, COS_E, COS_EO = 14, 15, 16, 17
-NODE_FIELDS = 18
+COS_O, SIN_O, COS_E, COS_EO, TWINS = 14, 15, 16, 17, 18
+NODE_FIELDS = 19
 # The upper bound's distance is at least this share of the node's diagonal (Cycles: half the bounding sphere's radius).
 CLAMP = 0.25
 # A box counts as above P's tangent plane only by more than this share of its distance and size (d + half its
@@ -180,6 +181,7 @@ class LightTree:
                 a[:, AXIS:AXIS + 3], a[:, THETA_O], b[:, AXIS:AXIS + 3], b[:, THETA_O])
             nodes[parents, THETA_E] = np.maximum(a[:, THETA_E], b[:, THETA_E])
             nodes[parents, ENERGY] = a[:, ENERGY] + b[:, ENERGY]
+            nodes[parents, TWINS] = twins(a, b).astype(np.float64)
         if depth.max() > MAX_DEPTH:
             raise ValueError("light tree deeper than its path bits")
         return cls(with_cosines(nodes), path, depth)
@@ -212,7 +214,7 @@ class LightTree:
                                 0.5 * ((upper_left > 0.0).astype(np.float64) + (upper_right == 0.0)))
             by_power = E_left / (E_left + E_right)
         by_importance = by_upper if self.rule == UPPER else 0.5 * (by_upper + by_lower)
-        return np.where(twins(self.nodes[left], self.nodes[right]), 0.5,
+        return np.where(self.nodes[node, TWINS] != 0.0, 0.5,
                         np.where(upper > 0.0, by_importance, by_power))
 
     def pick(self, P: np.ndarray, N: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -277,8 +279,8 @@ def twins(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     importance reads: boxes (each bound within the tolerance times the sum of both boxes' extents), cone axes and
     angles, energies (within the tolerance times their sum), and both leaves or both inner nodes. The walk gives
     such twins 1/2 each (an unbiased choice wherever P is: the same 1/2 in pick and pick_probability; it is what their
-    importances would give, to within the tolerance) and C skips their importances (emitters.c light_tree_twins,
-    the same sums in the same order). (m,) bool"""
+    importances would give, to within the tolerance) and C skips their importances (emitters.c reads the parent's
+    TWINS field, which `build` sets from this once per inner node). (m,) bool"""
     size = np.zeros(len(left))
     for c in range(3):
         size = size + (left[:, HI + c] - left[:, LO + c]) + (right[:, HI + c] - right[:, LO + c])

@@ -75,6 +75,17 @@ SIMD_CLONES NOINLINE static void sample_lanes(int64_t n, uint32_t stream, const 
     }
 }
 
+/* sample_lanes' first coordinates alone (x (n,)), where the second would go unused: the same numbers. */
+SIMD_CLONES NOINLINE static void sample_lanes_x(int64_t n, uint32_t stream, const uint32_t *restrict pixel,
+                                                const uint32_t *restrict index, double *restrict x)
+{
+    for (int64_t k = 0; k < n; k++) {
+        uint32_t key = hash_u32(pixel[k] ^ stream);
+        uint32_t shuffled = reverse_bits(laine_karras(reverse_bits(index[k]), key));
+        x[k] = reverse_bits(laine_karras(shuffled, combine_seed(key, 1))) * (1.0 / 4294967296.0);
+    }
+}
+
 /* sobol.sample_2d over arrays: pixel, index (n,) int64 -> out (n, 2) float64 (for the tests). */
 static void sample_2d_rows(const Sample2dArgs *a)
 {
