@@ -116,6 +116,31 @@ INLINE void uv_at(const GeometryTables *g, int64_t geometry, int64_t prim, doubl
     attributes_at(g, geometry, prim, u, v, offset, 2, out);
 }
 
+/* A point h (4) in a frame's camera space (or a direction, h[3] 1) on the raster, xy (2): through a panoramic
+ * camera's projection inverted (its Window, panorama_window) times the image's size, else h's x and y, divided by
+ * h[3] where `divide` (a point through the world-to-raster transform) and as they are where not (a direction). */
+INLINE void vector_raster(const PassTables *pt, const double *h, int divide, double *xy)
+{
+    if (pt->vector_panorama != 0) {
+        double uv[3];
+        panorama_window(h, pt->vector_window, uv);
+        xy[0] = uv[0] * pt->vector_size[0];
+        xy[1] = uv[1] * pt->vector_size[1];
+        return;
+    }
+    xy[0] = divide ? h[0] / h[3] : h[0];
+    xy[1] = divide ? h[1] / h[3] : h[1];
+}
+
+/* The Vector pass's (before - now, now - after) of the three frames' raster places (3 x 2) into out (4). */
+INLINE void vector_differences(double raster[3][2], double *out)
+{
+    for (int c = 0; c < 2; c++) {
+        out[c] = raster[0][c] - raster[1][c];
+        out[2 + c] = raster[1][c] - raster[2][c];
+    }
+}
+
 /* passes.vector_at for one hit of instance `object` at the world point P (on `prim` of geometry `geometry` at
  * barycentrics u, v): (before - now, now - after) on the raster and its weight 1, into out (5); 0 motion where
  * still. A deforming instance's point then is its mesh's motion attribute at the hit carried by its object's
@@ -146,20 +171,9 @@ INLINE void vector_at(const PassTables *pt, const GeometryTables *g, int64_t geo
                                          + move[4 * i + 3];
         const double *R = pt->vector_raster + 16 * k;
         for (int i = 0; i < 4; i++) h[i] = ((R[4 * i] * Q[0] + R[4 * i + 1] * Q[1]) + R[4 * i + 2] * Q[2]) + R[4 * i + 3];
-        if (pt->vector_panorama != 0) {             /* (h: the point in the camera's space then) */
-            double uv[3];
-            panorama_window(h, pt->vector_window, uv);
-            raster[k][0] = uv[0] * pt->vector_size[0];
-            raster[k][1] = uv[1] * pt->vector_size[1];
-            continue;
-        }
-        raster[k][0] = h[0] / h[3];
-        raster[k][1] = h[1] / h[3];
+        vector_raster(pt, h, 1, raster[k]);         /* (h: the point in the camera's space then) */
     }
-    for (int c = 0; c < 2; c++) {
-        out[c] = raster[0][c] - raster[1][c];
-        out[2 + c] = raster[1][c] - raster[2][c];
-    }
+    vector_differences(raster, out);
 }
 
 /* passes.world_vector_at for one camera ray of unit direction D that sees the world (Blender 5.2's Cycles,
@@ -179,20 +193,9 @@ INLINE void world_vector_at(const PassTables *pt, const double *D, double *out)
         double h[4];
         for (int i = 0; i < 3; i++) h[i] = (R[4 * i] * d[0] + R[4 * i + 1] * d[1]) + R[4 * i + 2] * d[2];
         h[3] = 1.0;
-        if (pt->vector_panorama != 0) {             /* (h: the direction in the camera's space then) */
-            double uv[3];
-            panorama_window(h, pt->vector_window, uv);
-            raster[k][0] = uv[0] * pt->vector_size[0];
-            raster[k][1] = uv[1] * pt->vector_size[1];
-            continue;
-        }
-        raster[k][0] = h[0];
-        raster[k][1] = h[1];
+        vector_raster(pt, h, 0, raster[k]);         /* (h: the direction in the camera's space then) */
     }
-    for (int c = 0; c < 2; c++) {
-        out[c] = raster[0][c] - raster[1][c];
-        out[2 + c] = raster[1][c] - raster[2][c];
-    }
+    vector_differences(raster, out);
 }
 
 /* passes.ambient_occlusion for one hit: what a cosine-distributed ray about N carries back through transparent
