@@ -2,6 +2,8 @@
 closure and the glass's lobe, as Cycles' rand_bsdf.z does, so the mix is no noisier than its expectation needs."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -73,6 +75,6 @@ def test_a_pane_of_glass_and_transparent_is_as_bright_as_its_glass_share_and_no_
 def test_both_kernels_render_the_mixed_pane_alike():
     """Python and C sample the same closures with the same numbers: the same image."""
     settings = RenderSettings(width=16, height=16, samples=16, integrator="path")
-    images = [render.render(pane_under_the_sky(0.2), settings.__class__(**{**settings.__dict__, "kernels": k})).image
+    images = [render.render(pane_under_the_sky(0.2), dataclasses.replace(settings, kernels=k)).image
               for k in ("numpy", "compiled")]
     np.testing.assert_allclose(images[0], images[1], atol=1e-9)
