@@ -35,7 +35,7 @@ INLINE void glass_sample(const Closure *c, const double *wo, const double *u, Bs
     glass_shares(p, clamp01(cos_i), R, T);
     double mean_R = (R[0] + R[1] + R[2]) / 3.0, mean_T = (T[0] + T[1] + T[2]) / 3.0, total = mean_R + mean_T;
     double p_reflect = total > 0.0 ? mean_R / total : 1.0;
-    int reflect = u[0] < p_reflect;
+    int reflect = u[2] < p_reflect;     /* (the pick's rescaled number, as glass.py) */
     double cos_t = sqrt(at_least(1.0 - (1.0 - cos_i * cos_i) / (eta * eta), 0.0));
     for (int k = 0; k < 3; k++) {
         out->wi[k] = reflect ? 2.0 * cos_i * N[k] - wo[k] : -wo[k] / eta + (cos_i / eta - cos_t) * N[k];

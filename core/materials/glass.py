@@ -9,7 +9,10 @@ R / (R + T) and bent by Snell's law, sin_t = sin_i / eta, otherwise:
 Past the critical angle (sin_i > eta) nothing is transmitted: total internal reflection. R is the
 Fresnel reflectance (exact, or the dielectric curve remapped from F0 to F90 as the Principled BSDF's
 transmission does) times the reflection tint, T = (1 - F) times the transmission tint. Both lobes are
-deltas: eval is 0, and only `sample` finds the directions (weight R / P(reflect) or T / P(refract)).
+deltas: eval is 0, and only `sample` finds the directions (weight R / P(reflect) or T / P(refract)). The choice
+takes u[:, 2], where the closure pick fell in this closure's share (closures.sample_closures), as Cycles'
+bsdf_microfacet_sample takes rand.z: one stratified number then chooses among a mixture's closures and between
+the two lobes, and a pane mixed with others (windows of Glass and Transparent) is no noisier than glass alone.
 Cycles' Glass and Refraction BSDF at roughness 0, and the Principled BSDF's transmission, use it.
 """
 from __future__ import annotations
@@ -70,7 +73,10 @@ class Glass(BSDF):
         total = R.mean(axis=1) + T.mean(axis=1)
         p_reflect = np.divide(R.mean(axis=1), total, out=np.ones(len(total)), where=total > 0.0)
         wt, _ = refract(wo, N, params[:, mf.IOR])
-        reflect = u[:, 0] < p_reflect
+        # (the third number: where the closure pick fell in this closure's share, so that the choice among the
+        #  mixture's closures and this lobe choice are one stratified number, as Cycles' rand_bsdf.z)
+        lobe_u = u[:, 2] if u.shape[1] > 2 else u[:, 0]
+        reflect = lobe_u < p_reflect
         wi = np.where(reflect[:, None], 2.0 * cos_i[:, None] * N - wo, wt)
         weight = np.where(reflect[:, None], R / np.maximum(p_reflect, 1e-300)[:, None],
                           T / np.maximum(1.0 - p_reflect, 1e-300)[:, None])
