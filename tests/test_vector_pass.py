@@ -173,10 +173,9 @@ def test_a_deforming_mesh_gets_its_vertices_then_as_attributes_and_a_rigid_one_n
     assert passes.with_vector_deformation(scene) is scene
 
 
-def test_the_compiled_deformation_motion_follows_the_reference():
-    """Both kernels map a box whose every vertex moves its own way between frames (a perspective camera, the box
-    turned and sliding too) to the same pass, pixel for pixel, from the same samples."""
-    camera = Camera.look_at(np.array([2.0, -3.0, 2.5]), np.zeros(3), up=(0.0, 0.0, 1.0), fov=math.radians(50))
+def wobbling_box(camera) -> Scene:
+    """A floor and a turned box seen by `camera`, the box sliding between the frames and each of its vertices moving
+    its own way (vector_motion, vector_deformation)."""
     scene = Scene(camera=camera)
     scene.add_material((0.5, 0.5, 0.5))
     scene.add_mesh(primitives.plane(20.0), materials=[0])
@@ -187,6 +186,14 @@ def test_the_compiled_deformation_motion_follows_the_reference():
     wobble = np.random.default_rng(3).uniform(-0.2, 0.2, (2, *vertices.shape))
     box.vector_deformation = (vertices + wobble[0], vertices + wobble[1])
     box.vector_motion = (shifted(box.matrix, (-0.1, 0.0, 0.0)), shifted(box.matrix, (0.1, 0.05, 0.0)))
+    return scene
+
+
+def test_the_compiled_deformation_motion_follows_the_reference():
+    """Both kernels map a box whose every vertex moves its own way between frames (a perspective camera, the box
+    turned and sliding too) to the same pass, pixel for pixel, from the same samples."""
+    camera = Camera.look_at(np.array([2.0, -3.0, 2.5]), np.zeros(3), up=(0.0, 0.0, 1.0), fov=math.radians(50))
+    scene = wobbling_box(camera)
     settings = RenderSettings(width=24, height=18, samples=4, passes=("vector",))
     compiled, reference = (render.render(scene, dataclasses.replace(settings, kernels=k)) for k in ("compiled", "numpy"))
     assert compiled.stats.kernels == "compiled"
@@ -321,16 +328,7 @@ def test_the_compiled_panorama_motion_follows_the_reference(kind):
     fisheye's circle both write 0)."""
     look = Camera.look_at(np.array([2.0, -3.0, 2.5]), np.zeros(3), up=(0.0, 0.0, 1.0)).matrix_world
     camera = Camera(matrix_world=look, type="PANO", panorama_type=kind, **PANORAMAS[kind])
-    scene = Scene(camera=camera)
-    scene.add_material((0.5, 0.5, 0.5))
-    scene.add_mesh(primitives.plane(20.0), materials=[0])
-    scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(0.0, 0.0, 0.5)), turned(1.0, (0.2, 0.0, 0.0)),
-                   materials=[0])
-    box = scene.instances[1]
-    vertices = scene.meshes[1].vertices
-    wobble = np.random.default_rng(3).uniform(-0.2, 0.2, (2, *vertices.shape))
-    box.vector_deformation = (vertices + wobble[0], vertices + wobble[1])
-    box.vector_motion = (shifted(box.matrix, (-0.1, 0.0, 0.0)), shifted(box.matrix, (0.1, 0.05, 0.0)))
+    scene = wobbling_box(camera)
     scene.vector_cameras = (dataclasses.replace(camera, matrix_world=shifted(turned(1.0, (0, 0, 0)) @ look,
                                                                              (0.1, 0.0, 0.0))),
                             dataclasses.replace(camera, matrix_world=shifted(look, (0.0, -0.2, 0.1))))
