@@ -501,7 +501,7 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
                            ds->media, &r->inside, r->O, r->D, r->hit ? r->t : INFINITY, ds->back);
         /* c. The light its media scatter towards it; for the light passes, by the stretch's shares (lightpasses.c
          *    stretch_shares: a path's shares are those of its first real bounce's ray, as next_vertices keeps them). */
-        double L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];
+        double L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3] = {{0.0}};    /* (read only with the light passes) */
         if (ds->light_passes)
             stretch_shares(bounces, H->bounce[h] == 0 && !see_through ? &r->shares[0][0] : &H->shares[h][0][0],
                            shares);
