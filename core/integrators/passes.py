@@ -631,14 +631,25 @@ def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray, attribu
             Q = Q.copy()
             Q[deformed] = np.einsum("kij,kj->ki", tables.objects[row[deformed], k // 2], np.c_[local, np.ones(len(local))])
         h = np.c_[Q, np.ones(len(P))] @ tables.raster[k].T
-        if tables.window:                           # (h: the point in the camera's space then)
-            at.append(graph_.panorama_window(h[:, :3], np.asarray(tables.window, np.float64))[:, :2]
-                      * np.asarray(tables.size))
-            continue
-        at.append(h[:, :2] / h[:, 3:4])
-    out[:, 0:2] = at[0] - at[1]
-    out[:, 2:4] = at[1] - at[2]
+        at.append(raster_of(tables, h, divide=True))    # (h: the point in the camera's space then)
+    out[:, 0:4] = differences(at)
     return out
+
+
+def raster_of(tables: VectorTables, h: np.ndarray, divide: bool) -> np.ndarray:
+    """Points h (k, 4) in a frame's camera space (or directions, h[:, 3] 1) on the raster: (k, 2), through a
+    panoramic camera's projection inverted (its Window, graph.panorama_window) times the image's size, else h's x
+    and y, divided by h[:, 3] where `divide` (points through the world-to-raster transform), as they are where not
+    (directions). passes.c vector_raster."""
+    if tables.window:
+        return graph_.panorama_window(h[:, :3], np.asarray(tables.window, np.float64))[:, :2] * np.asarray(tables.size)
+    return h[:, :2] / h[:, 3:4] if divide else h[:, :2]
+
+
+def differences(at: list) -> np.ndarray:
+    """The Vector pass's (before - now, now - after) of the three frames' raster places at (3 of (k, 2)): (k, 4).
+    passes.c vector_differences."""
+    return np.concatenate([at[0] - at[1], at[1] - at[2]], axis=1)
 
 
 def world_vector_at(tables: VectorTables, D: np.ndarray) -> np.ndarray:
@@ -656,13 +667,9 @@ def world_vector_at(tables: VectorTables, D: np.ndarray) -> np.ndarray:
     D = D / np.maximum(np.linalg.norm(D, axis=1, keepdims=True), 1e-300)
     at = []
     for k in range(3):
-        h = D @ np.asarray(tables.raster[k], np.float64)[:3, :3].T
-        if tables.window:                           # (h: the direction in the camera's space then)
-            at.append(graph_.panorama_window(h, np.asarray(tables.window, np.float64))[:, :2] * np.asarray(tables.size))
-        else:
-            at.append(h[:, :2])
-    out[:, 0:2] = at[0] - at[1]
-    out[:, 2:4] = at[1] - at[2]
+        h = np.c_[D @ np.asarray(tables.raster[k], np.float64)[:3, :3].T, np.ones(len(D))]
+        at.append(raster_of(tables, h, divide=False))   # (h: the direction in the camera's space then)
+    out[:, 0:4] = differences(at)
     return out
 
 
