@@ -16,8 +16,6 @@ from __future__ import annotations
 import dataclasses
 
 import math
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import ClassVar, Optional
 
@@ -229,17 +227,9 @@ def compiled_map(values: np.ndarray, sines: np.ndarray, w: int, h: int) -> tuple
     values = np.ascontiguousarray(values, np.float64)
     sines = np.ascontiguousarray(sines, np.float64)
     f, columns, totals = np.empty((h, w)), np.empty((h, w + 1)), np.empty(h)
-    threads = max(1, min(os.cpu_count() or 1, h))
-    bounds = np.linspace(0, h, threads + 1).astype(np.int64)
-
-    def band(k: int) -> None:
-        """Rows bounds[k] .. bounds[k + 1] - 1."""
-        library.call("primer_world_map", WorldMapArgs(
-            values=values, sines=sines, width=values.shape[1], height=values.shape[0], map_width=w, map_height=h,
-            row_start=int(bounds[k]), row_end=int(bounds[k + 1]), map=f, columns=columns, totals=totals))
-
-    with ThreadPoolExecutor(threads) as pool:
-        list(pool.map(band, range(threads)))
+    library.in_row_bands(h, lambda start, end: library.call("primer_world_map", WorldMapArgs(
+        values=values, sines=sines, width=values.shape[1], height=values.shape[0], map_width=w, map_height=h,
+        row_start=start, row_end=end, map=f, columns=columns, totals=totals)))
     return f, columns, totals
 
 

@@ -28,8 +28,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-import os
-from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
@@ -230,17 +228,8 @@ def compiled_bake(world: WorldProgram, width: int, height: int, flags: int = gra
     one per thread (the library lets Python's other threads run while it works); flags: the path's PATH_* bits."""
     radiance = np.empty((height, width, 3), np.float32)
     record = world.record()
-    threads = max(1, min(os.cpu_count() or 1, height))
-    bounds = np.linspace(0, height, threads + 1).astype(np.int64)
-
-    def band(k: int) -> None:
-        """Rows bounds[k] .. bounds[k + 1] - 1."""
-        library.call("primer_world_bake", WorldBakeArgs(world=record, width=width, height=height,
-                                                        row_start=int(bounds[k]), row_end=int(bounds[k + 1]),
-                                                        flags=flags, radiance=radiance))
-
-    with ThreadPoolExecutor(threads) as pool:
-        list(pool.map(band, range(threads)))
+    library.in_row_bands(height, lambda start, end: library.call("primer_world_bake", WorldBakeArgs(
+        world=record, width=width, height=height, row_start=start, row_end=end, flags=flags, radiance=radiance)))
     return radiance
 
 

@@ -144,3 +144,13 @@ def call(name: str, args):
 def contiguous(array: np.ndarray, dtype) -> np.ndarray:
     """Return `array` as a C-contiguous array of `dtype` (no copy when it already is one)."""
     return np.ascontiguousarray(array, dtype=dtype)
+
+
+def in_row_bands(rows: int, band) -> None:
+    """Call band(start, end) for a band of rows per thread, covering rows 0 .. rows - 1 (the library lets Python's
+    other threads run while it works, so a C function per band fills the cores)."""
+    from concurrent.futures import ThreadPoolExecutor
+    threads = max(1, min(os.cpu_count() or 1, rows))
+    bounds = np.linspace(0, rows, threads + 1).astype(np.int64)
+    with ThreadPoolExecutor(threads) as pool:
+        list(pool.map(lambda k: band(int(bounds[k]), int(bounds[k + 1])), range(threads)))
