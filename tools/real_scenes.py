@@ -7,6 +7,8 @@ Primer and with Cycles under the same settings and writes a report:
     .venv/bin/python tools/real_scenes.py fetch --mirror PATH/TO/glTF-Blender-IO --mirror ...   # once
     .venv/bin/python tools/real_scenes.py compare [--integrator direct|path] [--only NAME ...]
 
+A scene whose .blend reads linked libraries and textures by relative path (FOLDERS) is copied with its whole folder;
+a file its mirror holds only as a Git LFS pointer, or without content, is named by `fetch` and not copied.
 A material library (BOARDS: a file of materials and no scene) is shown as one sphere per material on a grid.
 A scene without a camera gets one that frames its meshes from a three-quarter view above; a scene
 without lights (lamps, an HDRI world or a mesh whose surface is an Emission shader) gets a sun and a dim world that lights it. Both renderers then run through
@@ -60,6 +62,23 @@ SOURCES = {
     "gltf_volume": GLTF_IO + ("tests/scenes/16_volume.blend",
                               "glTF KHR_materials_volume as Blender makes it: a Volume Absorption inside a glass "
                               "(Principled transmission) mesh, beside one without and one of zero thickness"),
+}
+
+# Scenes whose .blend reads other files by relative path (linked libraries, textures beside it): their whole folder
+# is copied, keeping its layout, into the cache's folder of the scene's name. name -> (repository, commit, licence,
+# folder in the repository, the .blend in that folder, what it exercises). A file the mirror holds only as a Git LFS
+# pointer, or not at all (a snapshot may leave out large files), is not copied and `fetch` names it: a pointer
+# written as a .blend would make Blender fail without saying why, and a missing image renders magenta in both
+# Cycles and Primer (Primer warns).
+FOLDERS = {
+    "classroom": ("Start-Ten/Virtual-Reality", "b2eda5f2c7d2d967ab80f5b8daab1e44d6d6f048",
+                  "CC0, Christophe Seux's *Classroom*, one of Blender's demo files (the licence the Blender demo-files "
+                  "page gives, as cited by third parties; this copy's repository has no licence of its own and its "
+                  "ReadMe.txt, the author's, states none)",
+                  "classroom", "classroom.blend",
+                  "an interior (Christophe Seux's Classroom, the Cycles benchmark scene, Blender 2.7x): sunlight "
+                  "through windows and Venetian blinds, many lamps, linked asset libraries (assets/*/*.blend), "
+                  "image textures beside the file"),
 }
 
 # Material libraries: files that hold procedural materials but no scene to show them in. name -> (repository,
@@ -295,6 +314,65 @@ def git_file(mirrors: list, commit: str, path: str):
     return None
 
 
+def lfs_pointer(data: bytes):
+    """The (sha256 oid, size in bytes) a Git LFS pointer file names, or None when `data` is not one (the spec's
+    first line is `version https://git-lfs.github.com/spec/v1`)."""
+    if not data.startswith(b"version https://git-lfs.github.com/spec/") or len(data) > 1024:
+        return None
+    fields = dict(line.split(" ", 1) for line in data.decode("ascii", "replace").splitlines() if " " in line)
+    oid = fields.get("oid", "").split(":", 1)[-1]
+    size = fields.get("size", "")
+    return (oid, int(size)) if size.isdigit() else (oid, -1)
+
+
+def git_folder(mirrors: list, commit: str, folder: str) -> tuple:
+    """(the first of `mirrors` holding `commit` (else HEAD) with `folder`, the revision, the folder's file paths
+    under it, repository-relative); (None, None, []) when none has it."""
+    for mirror in mirrors:
+        for revision in (commit, "HEAD"):
+            listed = subprocess.run(["git", "--git-dir", mirror, "ls-tree", "-r", "--name-only", "-z", revision,
+                                     "--", folder], capture_output=True)
+            paths = [p.decode() for p in listed.stdout.split(b"\0") if p] if listed.returncode == 0 else []
+            if paths:
+                return mirror, revision, paths
+    return None, None, []
+
+
+def fetch_folder(name: str, mirrors: list) -> dict:
+    """Copy a FOLDERS scene's folder from the first mirror holding it into CACHE/name, keeping its layout; return
+    {"copied": [relative paths], "lfs": {relative path: size}, "absent": [relative paths]}: files the mirror holds
+    only as Git LFS pointers, or whose content it lacks, are not written."""
+    repo, commit, _, folder, blend, _ = FOLDERS[name]
+    mirror, revision, paths = git_folder(mirrors, commit, folder)
+    out = {"copied": [], "lfs": {}, "absent": []}
+    if mirror is None:
+        print(f"{name}: {folder}/ is in none of {mirrors}")
+        return out
+    for path in paths:
+        relative = os.path.relpath(path, folder)
+        done = subprocess.run(["git", "--git-dir", mirror, "show", f"{revision}:{path}"], capture_output=True)
+        if done.returncode != 0:
+            out["absent"].append(relative)
+            continue
+        pointer = lfs_pointer(done.stdout)
+        if pointer is not None:
+            out["lfs"][relative] = pointer[1]
+            continue
+        target = os.path.join(CACHE, name, relative)
+        os.makedirs(os.path.dirname(target), exist_ok=True)
+        with open(target, "wb") as handle:
+            handle.write(done.stdout)
+        out["copied"].append(relative)
+    print(f"{name}: {len(out['copied'])} of {len(paths)} files from {repo} ({folder}/)"
+          + (f"; Git LFS pointers only (content not in the mirror): "
+             + ", ".join(f"{p} ({s / 1e6:.1f} MB)" for p, s in sorted(out["lfs"].items())) if out["lfs"] else "")
+          + (f"; absent from the mirror: {', '.join(sorted(out['absent']))}" if out["absent"] else ""))
+    if blend in out["lfs"] or blend in out["absent"]:
+        print(f"{name}: {blend} itself is not in the mirror, so the scene cannot be rendered; put the file (with its "
+              f"linked libraries) in {os.path.join(CACHE, name)} by other means, e.g. a clone with Git LFS content")
+    return out
+
+
 def fetch(mirrors: list) -> None:
     """Copy every source that one of the git directories `mirrors` holds into the cache."""
     os.makedirs(CACHE, exist_ok=True)
@@ -314,6 +392,8 @@ def fetch(mirrors: list) -> None:
         with open(os.path.join(CACHE, name + "_library.blend"), "wb") as handle:
             handle.write(data)
         print(f"{name}: {len(data) / 1e6:.1f} MB from {repo} ({path})")
+    for name in FOLDERS:
+        fetch_folder(name, mirrors)
     for name, (files, _, _) in BUILT.items():
         folder = os.path.join(CACHE, name)
         os.makedirs(folder, exist_ok=True)
@@ -367,10 +447,16 @@ def rig(name: str, integrator: str, width: int, height: int, out: str = "") -> t
     work folder): a camera and a sun where it has none, Cycles' look, the renderers' shared settings. Return (the
     rigged .blend's path, the rig's notes), or ("", [why]) when the scene is not in the cache or rigging failed."""
     source = (build(name) if name in BUILT else build_board(name) if name in BOARDS
+              else os.path.join(CACHE, name, FOLDERS[name][4]) if name in FOLDERS
               else os.path.join(CACHE, name + ".blend"))
     if not source or not os.path.exists(source):
-        print(f"{name}: not in the cache ({source}); run `fetch` first")
+        print(f"{name}: not in the cache ({source}); run `fetch` first"
+              + (" (it names what the mirror lacks)" if name in FOLDERS else ""))
         return "", [f"{name} is not in the cache {CACHE}"]
+    with open(source, "rb") as handle:
+        if lfs_pointer(handle.read(1024)) is not None:
+            print(f"{name}: {source} is a Git LFS pointer, not a .blend; its content is not in the cache")
+            return "", [f"{name} is a Git LFS pointer"]
     rigged = out or os.path.join(CACHE, "work", f"{name}_{integrator}.blend")
     os.makedirs(os.path.dirname(rigged), exist_ok=True)
     script = RIG.format(tools=os.path.join(ROOT, "tools"), source=source, out=rigged, width=width, height=height,
@@ -417,7 +503,8 @@ def compare(names: list, integrator: str, samples: int, reference: int, width: i
         row = dict(name=name, integrator=integrator, error=relative_mse_of_blocks(P, C),
                    ratio=float(P[..., :3].mean() / max(C[..., :3].mean(), 1e-12)), primer_s=seconds["PRIMER"],
                    cycles_s=seconds["CYCLES"], notes=notes, warnings=warnings,
-                   what=SOURCES[name][4] if name in SOURCES else BOARDS[name][5] if name in BOARDS else BUILT[name][2],
+                   what=(SOURCES[name][4] if name in SOURCES else BOARDS[name][5] if name in BOARDS
+                         else FOLDERS[name][5] if name in FOLDERS else BUILT[name][2]),
                    source=describe(name))
         rows.append(row)
         print(f"{name:22s} relMSE {row['error']:.2e}  mean P/C {row['ratio']:.4f}  "
@@ -432,6 +519,8 @@ def describe(name: str) -> str:
         return f"{SOURCES[name][0]} {SOURCES[name][3]} ({SOURCES[name][2]})"
     if name in BOARDS:
         return f"{BOARDS[name][0]} {BOARDS[name][3]} ({BOARDS[name][2]})"
+    if name in FOLDERS:
+        return f"{FOLDERS[name][0]} {FOLDERS[name][3]}/{FOLDERS[name][4]} ({FOLDERS[name][2]})"
     return "; ".join(sorted({f"{repo} ({licence})" for repo, _, licence, _ in BUILT[name][0]}))
 
 
@@ -466,7 +555,7 @@ def main(argv=None) -> int:
     if args.command == "fetch":
         fetch(args.mirror)
         return 0
-    compare(args.only or list(SOURCES) + list(BOARDS) + list(BUILT), args.integrator, args.samples, args.reference, *args.size, args.report)
+    compare(args.only or list(SOURCES) + list(BOARDS) + list(BUILT) + list(FOLDERS), args.integrator, args.samples, args.reference, *args.size, args.report)
     return 0
 
 
