@@ -555,7 +555,8 @@ def main(argv=None) -> int:
     if args.command == "fetch":
         fetch(args.mirror)
         return 0
-    compare(args.only or list(SOURCES) + list(BOARDS) + list(BUILT) + list(FOLDERS), args.integrator, args.samples, args.reference, *args.size, args.report)
+    compare(args.only or list(SOURCES) + list(BOARDS) + list(BUILT) + list(FOLDERS), args.integrator, args.samples,
+            args.reference, *args.size, args.report)
     return 0
 
 
