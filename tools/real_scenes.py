@@ -11,7 +11,7 @@ A material library (BOARDS: a file of materials and no scene) is shown as one sp
 A scene without a camera gets one that frames its meshes from a three-quarter view above; a scene
 without lights (lamps, an HDRI world or a mesh whose surface is an Emission shader) gets a sun and a dim world that lights it. Both renderers then run through
 tools/render.py (Cycles as Primer's reference: the same bounces, a 1-pixel box filter, no denoising, no
-clamping). The error measure is the project's: the relative MSE of 4x4-pixel block means,
+clamping, no compositor). The error measure is the project's: the relative MSE of 4x4-pixel block means,
 mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)); for scale, Cycles at 256 samples against its own 512 scores
 about 1e-4 or less. Cache: $PRIMER_REAL_SCENES, default ~/.cache/primer/real_scenes.
 """
