@@ -65,8 +65,8 @@ SOURCES = {
                        "tutorial), Cynnexis", "donut.blend",
                        "a tutorial food scene (Blender Guru's donut, Blender 3.4): a Noise bump and an image texture "
                        "on the dough, icing by a Subdivision and a geometry-nodes modifier that scatters sprinkles "
-                       "coloured by Object Info Random through a Color Ramp, four point lamps (one hidden), a "
-                       "world colour, its own camera"),
+                       "coloured by Object Info Random through a Constant Color Ramp, four point lamps (one hidden), "
+                       "a world colour, depth of field, motion blur, its own camera, a compositor (the rig's is off)"),
 }
 
 # Files a SOURCES scene reads by a relative path ("//..."), copied beside its .blend in the cache: name -> paths.
@@ -283,8 +283,8 @@ render.film_transparent = False
 render.use_stamp = False                    # a file may burn its date and render time into the image
 # The compositor is post-processing on both renderers' images, and a nonlinear one (a Glare's threshold, a Blur, a Lens
 # Distortion): the raw render result is what is compared (the donut's Glare made 3 % a 4x larger block error).
-compositor = getattr(scene, "compositing_node_group", None) or (scene.node_tree if getattr(scene, "use_nodes", False)
-                                                                  else None)
+compositor = getattr(scene, "compositing_node_group", None) or (getattr(scene, "node_tree", None)
+                                                                  if getattr(scene, "use_nodes", False) else None)
 if render.use_compositing and compositor is not None and len(compositor.nodes) > 0:
     notes.append("compositor off")
 render.use_compositing = render.use_sequencer = False
