@@ -21,6 +21,7 @@ import bpy
 import numpy as np
 
 from ..core.materials import NODE_TYPES, Material
+from ..core.materials import closures as closures_
 from ..core.materials import graph as graph_
 from ..core.materials import hair as hair_
 from ..core.materials import huang as huang_
@@ -158,7 +159,8 @@ EMISSION_NODES = ("ShaderNodeEmission", "ShaderNodeBackground")
 def _light_sampled_emitter(material) -> bool:
     """Whether `material` (a Blender material or light) may be an emitter that light samples land on: Cycles'
     Emission Sampling is not None and its node tree holds an Emission or Background node (Cycles' surface takes a
-    Background as an Emission) or a Principled BSDF that emits (its Emission Strength linked or above 0)."""
+    Background as an Emission) or a Principled BSDF that emits (closures.principled_emits: its Emission Color and
+    Emission Strength each linked or above Cycles' weight cutoff)."""
     material = getattr(material, "original", material)      # (as the user set it, not a depsgraph's copy)
     sampling = getattr(getattr(material, "cycles", None), "emission_sampling", "NONE")
     tree = getattr(material, "node_tree", None)
@@ -168,7 +170,10 @@ def _light_sampled_emitter(material) -> bool:
         if n.bl_idname in EMISSION_NODES:
             return True
         strength = n.inputs.get("Emission Strength") if n.bl_idname == "ShaderNodeBsdfPrincipled" else None
-        if strength is not None and (strength.is_linked or strength.default_value > 0.0):
+        color = n.inputs.get("Emission Color", n.inputs.get("Emission")) if strength is not None else None
+        if strength is not None and closures_.principled_emits(
+                color is None or color.is_linked, max(color.default_value[:3]) if color is not None else 1.0,
+                strength.is_linked, strength.default_value):
             return True
     return False
 
@@ -629,7 +634,7 @@ class GraphReader:
                 props["blend_type"] = "MIX"
         elif kind == "RAMP":
             ramp = node.color_ramp
-            props = {"table": np.array([ramp.evaluate(i / 255.0)[:] for i in range(256)], np.float64),
+            props = {"table": graph_.ramp_table(lambda position: ramp.evaluate(float(position))[:]),
                      "interpolate": ramp.interpolation != "CONSTANT"}
             inputs = self.inputs(node, path, ["Fac"])
         elif kind == "INVERT":

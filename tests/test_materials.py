@@ -172,3 +172,16 @@ def test_light_sampling_and_bsdf_sampling_estimate_the_same_light_from_an_area_l
     w_bsdf = np.where(found.hit, bs.pdf ** 2 / (bs.pdf ** 2 + p_l_of_bsdf ** 2), 0.0)
     E_mis = np.mean(w_light * ls.strength * cos_l) + np.mean(w_bsdf * np.where(found.hit, found.radiance[:, 0] * math.pi, 0.0))
     assert E_mis == pytest.approx(E_light, rel=0.01)
+
+
+def test_a_principled_bsdf_emits_only_with_both_a_colour_and_a_strength_as_cycles_decides():
+    """Cycles' PrincipledBsdfNode::has_surface_emission: a black Emission Color of Strength 1 (Blender's default, the
+    donut tutorial's dough) is no emitter, so no light-sampled-emitter warning names its Bump."""
+    from core.materials.closures import WEIGHT_CUTOFF, principled_emits
+    assert not principled_emits(False, 0.0, False, 1.0)              # black, strength 1: Blender's default
+    assert not principled_emits(False, 1.0, False, 0.0)              # white, strength 0
+    assert not principled_emits(False, WEIGHT_CUTOFF, False, 1.0)    # at the cutoff: dropped, as Cycles drops it
+    assert principled_emits(False, 2 * WEIGHT_CUTOFF, False, 1.0)
+    assert principled_emits(True, 0.0, False, 1.0)                   # a linked colour may emit
+    assert principled_emits(False, 0.5, True, 0.0)                   # so may a linked strength
+    assert not principled_emits(True, 0.0, False, 0.0)               # but not at strength 0

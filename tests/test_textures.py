@@ -727,3 +727,26 @@ def test_a_texture_limit_halves_an_image_into_the_means_of_its_blocks_as_cycles(
     assert quarter.shape == (1, 1, 1)
     assert quarter[0, 0, 0] == pytest.approx(small[:, :4].mean(), rel=1e-6)
     assert textures.limited(checker, 0) is checker and textures.limited(checker, 256) is checker
+
+
+def test_a_constant_colour_ramp_changes_colour_at_the_first_of_cycles_257_table_points_past_its_stop():
+    """Cycles bakes a Color Ramp at i / 256, i = 0 .. 256, and reads entry floor(f x 256): a Constant ramp whose stop
+    is at 0.141 (the donut tutorial's sprinkles) shows its first colour up to 37 / 256 = 0.1445, where a 256-entry
+    table at i / 255 would switch at 36 / 255 = 0.1412 (one sprinkle in a hundred took the wrong colour). Both
+    kernels, on emitting planes whose Fac straddles the two points."""
+    stop, before, after = 0.141, (1.0, 0.5, 0.2, 1.0), (0.6, 1.0, 0.2, 1.0)
+    table = graph.ramp_table(lambda position: before if position < stop else after)
+    assert table.shape == (graph.RAMP_TABLE_SIZE + 1, 4)
+    facs = (0.1405, 0.1420, 0.1440, 0.1450, 0.1500)
+    expected = [before, before, before, after, after]            # 37 / 256 = 0.14453
+    scene = Scene(camera=ortho_down(center=(len(facs) / 2, 0.5, 0.0), height=2.0, scale=float(len(facs))))
+    scene.materials = [emitting(Link(GraphNode("RAMP", {"table": table, "interpolate": False}, {"Fac": fac}),
+                                     "Color")) for fac in facs]
+    for index in range(len(facs)):
+        scene.add_mesh(primitives.plane(1.0, center=(index + 0.5, 0.5, 0.0)), materials=np.array([index]),
+                       name=f"Fac{index}")
+    settings = RenderSettings(width=5 * 8, height=8, samples=1)
+    for kernels in ("numpy", "compiled"):
+        image = render.render(scene, dataclasses.replace(settings, kernels=kernels)).image
+        for index, colour in enumerate(expected):
+            np.testing.assert_allclose(image[4, index * 8 + 4, :3], colour[:3], rtol=1e-6, err_msg=kernels)

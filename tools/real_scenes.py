@@ -13,7 +13,7 @@ A material library (BOARDS: a file of materials and no scene) is shown as one sp
 A scene without a camera gets one that frames its meshes from a three-quarter view above; a scene
 without lights (lamps, an HDRI world or a mesh whose surface is an Emission shader) gets a sun and a dim world that lights it. Both renderers then run through
 tools/render.py (Cycles as Primer's reference: the same bounces, a 1-pixel box filter, no denoising, no
-clamping). The error measure is the project's: the relative MSE of 4x4-pixel block means,
+clamping, no compositor). The error measure is the project's: the relative MSE of 4x4-pixel block means,
 mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)); for scale, Cycles at 256 samples against its own 512 scores
 about 1e-4 or less. Cache: $PRIMER_REAL_SCENES, default ~/.cache/primer/real_scenes.
 """
@@ -62,6 +62,13 @@ SOURCES = {
     "gltf_volume": GLTF_IO + ("tests/scenes/16_volume.blend",
                               "glTF KHR_materials_volume as Blender makes it: a Volume Absorption inside a glass "
                               "(Principled transmission) mesh, beside one without and one of zero thickness"),
+    "donut_tutorial": ("Cynnexis/b3d-donut", "63ff1abeeca44556cca61757789f08b5948d471d",
+                       "licence unknown (the repository has no licence; a student's result of Blender Guru's donut "
+                       "tutorial), Cynnexis", "donut.blend",
+                       "a tutorial food scene (Blender Guru's donut, Blender 3.4): a Noise bump and an image texture "
+                       "on the dough, icing by a Subdivision and a geometry-nodes modifier that scatters sprinkles "
+                       "coloured by Object Info Random through a Constant Color Ramp, four point lamps (one hidden), "
+                       "a world colour, depth of field, motion blur, its own camera, a compositor (the rig's is off)"),
 }
 
 # Scenes whose .blend reads other files by relative path (linked libraries, textures beside it): their whole folder
@@ -80,6 +87,8 @@ FOLDERS = {
                   "through windows and Venetian blinds, many lamps, linked asset libraries (assets/*/*.blend), "
                   "image textures beside the file"),
 }
+# Files a SOURCES scene reads by a relative path ("//..."), copied beside its .blend in the cache: name -> paths.
+BESIDE = {"donut_tutorial": ("Donut Base.png",)}
 
 # Material libraries: files that hold procedural materials but no scene to show them in. name -> (repository,
 # commit, licence, path, the materials to show, what they exercise). `build` opens the file, removes its objects and
@@ -290,6 +299,13 @@ render = scene.render
 render.resolution_x, render.resolution_y, render.resolution_percentage = {width}, {height}, 100
 render.film_transparent = False
 render.use_stamp = False                    # a file may burn its date and render time into the image
+# The compositor is post-processing on both renderers' images, and a nonlinear one (a Glare's threshold, a Blur, a Lens
+# Distortion): the raw render result is what is compared (the donut's Glare made 3 % a 4x larger block error).
+compositor = getattr(scene, "compositing_node_group", None) or (getattr(scene, "node_tree", None)
+                                                                  if getattr(scene, "use_nodes", False) else None)
+if render.use_compositing and compositor is not None and len(compositor.nodes) > 0:
+    notes.append("compositor off")
+render.use_compositing = render.use_sequencer = False
 scene.view_settings.view_transform = "Standard"
 scene.view_settings.look = "None"
 scene.view_settings.exposure, scene.view_settings.gamma = 0.0, 1.0
@@ -384,6 +400,12 @@ def fetch(mirrors: list) -> None:
         with open(os.path.join(CACHE, name + os.path.splitext(path)[1]), "wb") as handle:
             handle.write(data)
         print(f"{name}: {len(data) / 1e6:.1f} MB from {repo} ({path})")
+        for extra in BESIDE.get(name, ()):
+            data = git_file(mirrors, commit, extra)
+            if data is not None:
+                with open(os.path.join(CACHE, os.path.basename(extra)), "wb") as handle:
+                    handle.write(data)
+            print(f"{name}: {extra} " + ("copied beside it" if data is not None else "missing"))
     for name, (repo, commit, _, path, _, _) in BOARDS.items():
         data = git_file(mirrors, commit, path)
         if data is None:

@@ -23,6 +23,14 @@ from .lambert import Lambert
 # NODE_PARAMS per shader node (core/materials/base.py).
 # A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
 WEIGHT_CUTOFF = 1e-5
+
+
+def principled_emits(color_linked: bool, color_max: float, strength_linked: bool, strength: float) -> bool:
+    """Whether a Principled BSDF may emit, as Cycles decides it (PrincipledBsdfNode::has_surface_emission): its
+    Emission Color linked or of a largest component above WEIGHT_CUTOFF, and its Emission Strength linked or above
+    it. A black colour of strength 1 (Blender's default) emits nothing, whatever the strength."""
+    return ((color_linked or color_max > WEIGHT_CUTOFF)
+            and (strength_linked or strength > WEIGHT_CUTOFF))
 # What a hit's shading may leave out (Cycles' caustics switches, Light Paths > Caustics): the bits of a hit's
 # `caustics` filter. A hit reached by a ray that a diffuse bounce sent sets up no reflective (glossy, mirror,
 # metal, coat, specular) closures with FILTER_REFLECTIVE, and lets no light through glass with

@@ -299,6 +299,19 @@ def object_random(name: str) -> float:
     return random_from_id(int(hash_.hash_uint2(h, 0)))
 
 
+# Cycles' RAMP_TABLE_SIZE. Blender's sync bakes a Color Ramp at i / 256 for i = 0 .. 256 (colorramp_to_array's
+# full_size, size + 1 entries) and the kernel reads entry floor(f x 256) (svm/ramp.h, table_size - 1 = 256): a
+# Constant ramp changes colour at the first of those points at or past each stop.
+RAMP_TABLE_SIZE = 256
+
+
+def ramp_table(evaluate) -> np.ndarray:
+    """A Color Ramp's table as Cycles bakes it: `evaluate(position)` -> RGBA at position = i / RAMP_TABLE_SIZE for
+    i = 0 .. RAMP_TABLE_SIZE; (RAMP_TABLE_SIZE + 1, 4) float64 (the RAMP op's props["table"])."""
+    return np.array([evaluate(np.float32(i) / np.float32(RAMP_TABLE_SIZE))[:4] for i in range(RAMP_TABLE_SIZE + 1)],
+                    np.float64)
+
+
 def random_from_id(random_id: int) -> float:
     """Cycles' object random number from a 32-bit random id: float(id) x (1 / 0xFFFFFFFF), in float32."""
     return float(np.float32(np.float32(random_id & 0xFFFFFFFF) * np.float32(1.0 / 0xFFFFFFFF)))
