@@ -146,6 +146,14 @@ INLINE void hit_triangle(const GeometryTables *g, int64_t geometry, int64_t prim
     out->time = time;
 }
 
+/* The material row of an Embree hit: hit_triangle's `material` alone, without reading or placing its corners. */
+INLINE int32_t hit_material(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
+{
+    if (geometry <= 0) return g->material[prim];
+    const InstancedTables *mesh = g->meshes + (geometry - 1);
+    return mesh->material[(int64_t)mesh->material_row[instance] * (int64_t)mesh->triangle_count + prim];
+}
+
 /* WorldGeometry.owners for one Embree hit: the Scene.instances entry of the object hit (-1: none). */
 INLINE int64_t owner_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
 {

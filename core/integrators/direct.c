@@ -996,6 +996,12 @@ INLINE int finds_emitter(const GeometryTables *g, const FindingRay *ray)
            && links_of(g, ray->geometry, ray->prim, ray->instance, 3) == ALL_SETS;
 }
 
+/* Whether a material may emit light: its node graph gives its emission, or its constant emission is not zero. */
+INLINE int may_emit(const MaterialRecord *m)
+{
+    return m->graph_emits != 0 || m->emission[0] != 0.0 || m->emission[1] != 0.0 || m->emission[2] != 0.0;
+}
+
 NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ray, double *light_L, double *groups_L)
 {
     const double *O = ray->O, *D = ray->D, *P = ray->P, *N = ray->N;
@@ -1054,13 +1060,14 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     }
     /* b. An emissive surface the ray hits, weighed against the emitters' own samples. */
     /* (a camera path's ray, through Transparent closures, finds a holdout emitting nothing: a hole, path.hold_out) */
-    if (hit && ds->emissive && !(camera && hidden_from(ds->geometry, geometry, prim, instance, HOLDOUT))
+    /* (a surface whose material emits nothing is skipped: it would add 0 x w, w finite, to what is already there) */
+    const MaterialRecord *material = hit && ds->emissive
+        ? ds->materials + hit_material(ds->geometry, geometry, prim, instance) : NULL;
+    if (material != NULL && may_emit(material) && !(camera && hidden_from(ds->geometry, geometry, prim, instance, HOLDOUT))
         && (ray->seen_as == HIDDEN_FROM_CAMERA || ds->geometry->links == NULL || finds_emitter(ds->geometry, ray))) {
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
-        hit_triangle(ds->geometry, geometry, prim, instance, 0, ray->time, &tri);
-        const double *emitted = ds->materials[tri.material].emission;
+        const double *emitted = material->emission;
         double textured[3];
-        if (ds->materials[tri.material].graph_emits != 0.0) {     /* a texture's emission, where the ray landed */
+        if (material->graph_emits != 0) {                 /* a texture's emission, where the ray landed */
             graph_emission(ds, geometry, prim, instance, O, D, t_limit, ray->time, ray->path, ray->keys, textured);
             emitted = textured;
         }

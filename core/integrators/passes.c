@@ -256,10 +256,14 @@ NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, 
     /* 2. The opaque-enough vertex: the normal and UV, summed over samples; the chain's data passes are done. */
     if (!lp->done[lane] && (alpha[0] + alpha[1] + alpha[2]) / 3.0 >= pt->alpha_threshold) {
         double value[3];
-        average_normal(sd, value);
-        pass_add(lp, lane, PASS_AVERAGE_NORMAL, value, NULL);
-        uv_at(g, H->geometry[h], H->prim[h], H->bary[2 * h], H->bary[2 * h + 1], (int)pt->uv_offset, value);
-        pass_add(lp, lane, PASS_UV, value, NULL);
+        if (pt->offset[PASS_AVERAGE_NORMAL] >= 0) {       /* (each only where its pass is written) */
+            average_normal(sd, value);
+            pass_add(lp, lane, PASS_AVERAGE_NORMAL, value, NULL);
+        }
+        if (pt->offset[PASS_UV] >= 0) {
+            uv_at(g, H->geometry[h], H->prim[h], H->bary[2 * h], H->bary[2 * h + 1], (int)pt->uv_offset, value);
+            pass_add(lp, lane, PASS_UV, value, NULL);
+        }
         if (pt->offset[PASS_VECTOR] >= 0) {
             double P[3], motion[5];
             for (int c = 0; c < 3; c++) P[c] = s->I[c] + pt->origin[c];

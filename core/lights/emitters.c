@@ -315,18 +315,12 @@ INLINE int emitter_spherical(const double *V, double height, double area)
     return longest > delta * delta;
 }
 
-/* MeshEmitters.corners_at for emitter i at `time` in the shutter (time < 0: the frame): its corners (9,), unit
- * normal and area, the table's row for a still one, a moving one's placed as triangles.c places it for rays then
- * (hit_triangle's corners) into placed, normal and *area. Returns the corners. */
-NOINLINE static const double *emitter_at(const EmitterTables *e, int64_t i, double time, double *placed,
-                                         double *normal, double *area)
+/* MeshEmitters.corners_at for emitter i of instanced mesh m, moving, at `time` in the shutter: its corners placed as
+ * triangles.c places them for rays then (hit_triangle's corners) into placed (9,), its unit normal and area into
+ * normal and *area. Returns placed. */
+NOINLINE static const double *moving_emitter_at(const EmitterTables *e, int64_t i, int32_t m, double time,
+                                                double *placed, double *normal, double *area)
 {
-    int32_t m = e->mesh != NULL && e->geometry != NULL && time >= 0.0 ? e->mesh[i] : -1;
-    if (m < 0) {
-        for (int c = 0; c < 3; c++) normal[c] = e->normal[3 * i + c];
-        *area = e->area[i];
-        return e->corners + 9 * i;
-    }
     const GeometryTables *g = (const GeometryTables *)e->geometry;
     const InstancedTables *mesh = g->meshes + m;
     int64_t local = (e->prim[i] - (int64_t)mesh->first_prim) % (int64_t)mesh->triangle_count;
@@ -341,6 +335,19 @@ NOINLINE static const double *emitter_at(const EmitterTables *e, int64_t i, doub
     for (int c = 0; c < 3; c++) normal[c] = length > 0.0 ? cross[c] / length : 0.0;
     *area = 0.5 * length;
     return placed;
+}
+
+/* MeshEmitters.corners_at for emitter i at `time` in the shutter (time < 0: the frame): its corners (9,), unit
+ * normal and area, the table's row for a still one (inline: no call for the common case), a moving one's from
+ * moving_emitter_at into placed, normal and *area. Returns the corners. */
+INLINE const double *emitter_at(const EmitterTables *e, int64_t i, double time, double *placed, double *normal,
+                                double *area)
+{
+    int32_t m = e->mesh != NULL && e->geometry != NULL && time >= 0.0 ? e->mesh[i] : -1;
+    if (m >= 0) return moving_emitter_at(e, i, m, time, placed, normal, area);
+    for (int c = 0; c < 3; c++) normal[c] = e->normal[3 * i + c];
+    *area = e->area[i];
+    return e->corners + 9 * i;
 }
 
 /* MeshEmitters.sample for one point with normal N (NULL or zero: unknown) at `time` in the shutter (where a moving
