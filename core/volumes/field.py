@@ -143,11 +143,14 @@ class Field:
     Volume object's [grids.Grid], which its graph reads as the attributes "grid:NAME" and "attr:NAME" (an Attribute
     node's, Volume Info's), four floats each after the coordinates; origin: (3,) the
     world point the render's coordinates are relative to (geometry.origin); bounds: (low (3,), high (3,)) the
-    camera-relative box of its triangles (the march's extent and step)."""
+    camera-relative box of its triangles (the march's extent and step); step: the march's longest piece (None: the
+    box's diagonal / STEPS_ACROSS); unbounded: the world's medium (`world_field`), which every ray is in and which
+    goes on past its box (March: held at its value where the ray leaves the box)."""
 
-    def __init__(self, entries: list, space=None, origin=None, bounds=None):
+    def __init__(self, entries: list, space=None, origin=None, bounds=None, step=None, unbounded=False):
         from ..materials import graph as graph_
         self.entries = entries
+        self.unbounded = bool(unbounded)
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
         matrix, location, size, *rest = space if space is not None else (np.eye(4)[:3], np.zeros(3), np.ones(3))
         self.grids = list(rest[0]) if rest and rest[0] else []
@@ -162,7 +165,7 @@ class Field:
         self.low, self.high = ((np.full(3, -np.inf), np.full(3, np.inf)) if bounds is None
                                else (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)))
         diagonal = float(np.linalg.norm(self.high - self.low)) if np.isfinite(self.high - self.low).all() else 1.0
-        self.step = max(diagonal, 1e-6) / STEPS_ACROSS
+        self.step = max(diagonal, 1e-6) / STEPS_ACROSS if step is None else float(step)
         # One shader "node" per closure, its linked inputs the slots the program writes (graph.Compiler.compile).
         self.slots, nodes = [], []
         for k, (name, weight, inputs) in enumerate(entries):
@@ -350,14 +353,32 @@ class March:
                     sig_s[r, c] += w[:, None] * found.sigma_s
                     emit[r, c] += w[:, None] * found.emission
                     gs[r, c] += w * found.gs
+        # 2b. An unbounded medium (the world's: Field.unbounded) before and after the box: its coefficients where the
+        # ray enters the box and where it leaves it, held along the rest of the ray (the outer pieces).
+        out_a, out_s, out_e, out_g = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
+        for f, field in enumerate(fields):
+            if not field.unbounded:
+                continue
+            count = counts[:, f].astype(np.float64)
+            for side, (x, width) in enumerate(((a, a), (b, t - b))):
+                some = np.flatnonzero((count > 0.0) & (width > 0.0))
+                if len(some):
+                    found = field.at(O[some] + x[some, None] * D[some])
+                    w = count[some]
+                    out_a[some, side] += w[:, None] * found.sigma_a
+                    out_s[some, side] += w[:, None] * found.sigma_s
+                    out_e[some, side] += w[:, None] * found.emission
+                    out_g[some, side] += w * found.gs
         # 3. The homogeneous media all along, the pieces' optical depths.
         hom_t, hom_s, hom_e, hom_g = homogeneous
         hom_gs = hom_g * hom_s.sum(axis=1)
-        pad = lambda x, h: np.concatenate([h[:, None], h[:, None] + x, h[:, None]], axis=1)   # noqa: E731
-        self.sigma_t = pad(sig_a + sig_s, hom_t)
-        self.sigma_s = pad(sig_s, hom_s)
-        self.emission = pad(emit, hom_e)
-        self.gs = np.concatenate([hom_gs[:, None], hom_gs[:, None] + gs, hom_gs[:, None]], axis=1)
+        pad = lambda x, h, o: np.concatenate([h[:, None] + o[:, :1], h[:, None] + x, h[:, None] + o[:, 1:]],  # noqa
+                                             axis=1)
+        self.sigma_t = pad(sig_a + sig_s, hom_t, out_a + out_s)
+        self.sigma_s = pad(sig_s, hom_s, out_s)
+        self.emission = pad(emit, hom_e, out_e)
+        self.gs = np.concatenate([(hom_gs + out_g[:, 0])[:, None], hom_gs[:, None] + gs, (hom_gs + out_g[:, 1])[:, None]],
+                                 axis=1)
         width = np.diff(self.edges, axis=1)                             # (n, K + 2), the last may be inf
         with np.errstate(invalid="ignore"):
             depth = np.where(self.sigma_t > 0.0, self.sigma_t * width[:, :, None], 0.0)
@@ -777,7 +798,7 @@ def grid_tables(grids: list) -> dict:
 VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/volumes/field.py Field): its program and closures, for media.c's march.", [
     ("graph", ptr("GraphTables"), "its one program and the images it reads"),
     ("next", ptr("VolumeField"), "the render's next heterogeneous medium, or NULL"),
-    ("column", I32, "its column of the MediaTables (how often a ray is in it: the volume stack's count there)"),
+    ("column", I32, "its column of the MediaTables (how often a ray is in it: the volume stack's count there; -1: the world's, every ray once)"),
     ("closures", I32, "C: its Volume output's closures"),
     ("scatters", I32, "1: some closure of it may scatter (Field.scatters)"),
     ("emits", I32, "1: some closure of it may emit (Field.emits)"),
