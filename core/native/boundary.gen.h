@@ -1273,7 +1273,7 @@ struct Sample2dArgs {
 struct VolumeField {
     const GraphTables *graph;               /* its one program and the images it reads */
     const VolumeField *next;                /* the render's next heterogeneous medium, or NULL */
-    int32_t column;                         /* its column of the MediaTables (how often a ray is in it: the volume stack's count there) */
+    int32_t column;                         /* its column of the MediaTables (how often a ray is in it: the volume stack's count there; -1: the world's, every ray once) */
     int32_t closures;                       /* C: its Volume output's closures */
     int32_t scatters;                       /* 1: some closure of it may scatter (Field.scatters) */
     int32_t emits;                          /* 1: some closure of it may emit (Field.emits) */
