@@ -388,6 +388,12 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
     pieces = pieces != pieces ? 1.0 : pieces;
     int K = (int)pieces;
     double length = (b - a) / pieces, gs_h = g * ((sigma_s[0] + sigma_s[1]) + sigma_s[2]);
+    double diagonal = 0.0;                         /* (the box's: the world's probes after it) */
+    for (int c = 0; c < 3; c++) {
+        double side = media->field_high[c] - media->field_low[c];
+        diagonal += side * side;
+    }
+    diagonal = isfinite(diagonal) ? sqrt(diagonal) : 0.0;
     m->n = K + 2;
     m->edges[0] = 0.0;
     for (int j = 0; j < K; j++) m->edges[1 + j] = a + length * (double)j;
@@ -405,6 +411,15 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
                 double count = field_count(f, stack), fa[3], fs[3], fe[3], fg;
                 if (!(count > 0.0) || (outer && f->column >= 0)) continue;
                 field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
+                for (int k = 1; j == K + 1 && k < WORLD_PROBES; k++) {    /* (after the box: the densest probe) */
+                    double Q[3], qa[3], qs[3], qe[3], qg, x = b + diagonal * (pow(2.0, (double)k) - 1.0);
+                    for (int c = 0; c < 3; c++) Q[c] = O[c] + x * D[c];
+                    field_at(f, Q, qa, qs, qe, &qg, NULL, 0.0);
+                    if ((qa[0] + qs[0]) + (qa[1] + qs[1]) + (qa[2] + qs[2]) > (fa[0] + fs[0]) + (fa[1] + fs[1]) + (fa[2] + fs[2])) {
+                        for (int c = 0; c < 3; c++) { fa[c] = qa[c]; fs[c] = qs[c]; fe[c] = qe[c]; }
+                        fg = qg;
+                    }
+                }
                 for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; se[c] += count * fe[c]; }
                 sg += count * fg;
             }
@@ -466,6 +481,7 @@ static void march_transmittance(const March *m, double s, double *T)
         T[c] = exp(-((m->tau[k][c] + flat) + bent));
     }
     double reach = m->M[k] + (mu > 0.0 ? mu * (s - start) : 0.0), target = 0.0;
+    if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0)) return;     /* (the control lets nothing through: T is 0) */
     for (int64_t i = 0; reach > 0.0; i++) {
         target += -log1p(-tracking_u(m->key, i));
         if (target >= reach) break;

@@ -48,6 +48,8 @@ EMISSION_DRAW = schema.constant("EMISSION_DRAW", 1 << 40, "the number of a ray's
                                 "emission's correction point (past any ratio-tracking walk's)")
 UNIFORM_SHARE = schema.constant("UNIFORM_SHARE", 0.25, "the odds that free flight in a heterogeneous medium draws "
                                 "its distance uniformly in the media's box (field.py March.uniform_share)")
+WORLD_PROBES = schema.constant("WORLD_PROBES", 8, "the points past the media's box where a ray's stretch after it "
+                               "reads the world's heterogeneous medium (field.py March: the densest held)")
 TRACKING_SAFETY = schema.constant("TRACKING_SAFETY", 8.0, "the factor on a piece's second difference of sigma_t "
                                   "that makes its ratio-tracking majorant")
 
@@ -353,9 +355,13 @@ class March:
                     sig_s[r, c] += w[:, None] * found.sigma_s
                     emit[r, c] += w[:, None] * found.emission
                     gs[r, c] += w * found.gs
-        # 2b. An unbounded medium (the world's: Field.unbounded) before and after the box: its coefficients where the
-        # ray enters the box and where it leaves it, held along the rest of the ray (the outer pieces).
+        # 2b. An unbounded medium (the world's: Field.unbounded) before and after the box, held along the rest of the
+        # ray (the outer pieces): before it, its coefficients where the ray enters the box; after it, the densest
+        # (sigma_t summed over the channels, the first on a tie) of WORLD_PROBES points b + L (2^k - 1), L the box's
+        # diagonal (the stretch after the box is mostly a ray's way to infinity, which any density there stops).
         out_a, out_s, out_e, out_g = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
+        side = high - low
+        L = float(np.sqrt((side[0] * side[0] + side[1] * side[1]) + side[2] * side[2])) if np.isfinite(side).all() else 0.0
         for f, field in enumerate(fields):
             if not field.unbounded:
                 continue
@@ -364,6 +370,11 @@ class March:
                 some = np.flatnonzero((count > 0.0) & (width > 0.0))
                 if len(some):
                     found = field.at(O[some] + x[some, None] * D[some])
+                    for k in range(1, int(WORLD_PROBES) if side == 1 else 1):
+                        probe = field.at(O[some] + (x[some] + L * (2.0 ** k - 1.0))[:, None] * D[some])
+                        denser = (probe.sigma_a + probe.sigma_s).sum(axis=1) > (found.sigma_a + found.sigma_s).sum(axis=1)
+                        found = Sample(*(np.where(denser[:, None] if new.ndim == 2 else denser, new, old)
+                                         for new, old in zip(probe, found)))
                     w = count[some]
                     out_a[some, side] += w[:, None] * found.sigma_a
                     out_s[some, side] += w[:, None] * found.sigma_s
@@ -608,7 +619,7 @@ class March:
             reach = self.M[rows, k] + np.where(mu > 0.0, mu * (s - start), 0.0)
         T = np.exp(-depth)
         target = np.zeros(n)
-        walking = reach > 0.0
+        walking = (reach > 0.0) & (T > 0.0).any(axis=1)     # (the control lets nothing through: T is 0)
         i = 0
         while walking.any():
             go = np.flatnonzero(walking)
