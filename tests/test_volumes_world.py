@@ -75,3 +75,20 @@ def test_a_suns_shadow_rays_through_a_falling_world_density_keep_exp_of_its_slan
     print(found.reshape(-1, 3).mean(axis=0) / expected - 1.0, np.abs(found / expected - 1.0).max())
     np.testing.assert_allclose(found.reshape(-1, 3).mean(axis=0), expected, rtol=2e-3)
     np.testing.assert_allclose(found, np.broadcast_to(expected, (4, 4, 3)), rtol=2e-2)
+
+
+def test_both_kernels_render_a_scattering_world_that_thins_with_height_to_the_same_pixels():
+    """A world Volume Scatter (g 0.4) of density 0.3 (2.9 - z) in a room under an area and a point lamp and a sun
+    (whose shadow rays leave the box to infinity), a smoke box inside it, Volume Bounces 1: the kernels march,
+    track and scatter alike (test_volumes_compiled's tolerance for tracked pixels)."""
+    import math
+    from test_volumes_compiled import assert_same_tracked_pixels, both, looking, room, smoke
+    scene = room(looking())
+    smoke(scene)
+    scene.lights.append(SunLight(direction=np.array([0.3, 0.2, -1.0]) / math.sqrt(1.13), strength=2.0))
+    scene.world = World(color=np.array([0.3, 0.4, 0.5]),
+                        volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": falling(), "anisotropy": 0.4})])
+    reference, compiled, stats = both(scene, volume_bounces=1, width=8, height=6, samples=2)
+    assert stats.kernels == "compiled"
+    assert not any("heterogeneous world" in w for w in stats.warnings), stats.warnings
+    assert_same_tracked_pixels(reference, compiled, rtol=0.05)

@@ -360,7 +360,7 @@
 #define EMISSION_DRAW 1099511627776
 /* the odds that free flight in a heterogeneous medium draws its distance uniformly in the media's box (field.py March.uniform_share) (core.volumes.field) */
 #define UNIFORM_SHARE 0.25
-/* the points past the media's box where a ray's stretch after it reads the world's heterogeneous medium (field.py March: the densest held) (core.volumes.field) */
+/* the points past the media's box where a ray's stretch after it reads the world's heterogeneous medium (field.py March: their mean held) (core.volumes.field) */
 #define WORLD_PROBES 8
 /* the factor on a piece's second difference of sigma_t that makes its ratio-tracking majorant (core.volumes.field) */
 #define TRACKING_SAFETY 8.0

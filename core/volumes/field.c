@@ -411,14 +411,21 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
                 double count = field_count(f, stack), fa[3], fs[3], fe[3], fg;
                 if (!(count > 0.0) || (outer && f->column >= 0)) continue;
                 field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
-                for (int k = 1; j == K + 1 && k < WORLD_PROBES; k++) {    /* (after the box: the densest probe) */
-                    double Q[3], qa[3], qs[3], qe[3], qg, x = b + diagonal * (pow(2.0, (double)k) - 1.0);
-                    for (int c = 0; c < 3; c++) Q[c] = O[c] + x * D[c];
-                    field_at(f, Q, qa, qs, qe, &qg, NULL, 0.0);
-                    if ((qa[0] + qs[0]) + (qa[1] + qs[1]) + (qa[2] + qs[2]) > (fa[0] + fs[0]) + (fa[1] + fs[1]) + (fa[2] + fs[2])) {
-                        for (int c = 0; c < 3; c++) { fa[c] = qa[c]; fs[c] = qs[c]; fe[c] = qe[c]; }
-                        fg = qg;
+                if (outer) {                           /* (before and after the box: the probes' mean, March) */
+                    for (int k = 1; k < WORLD_PROBES; k++) {
+                        double Q[3], qa[3], qs[3], qe[3], qg, reach = diagonal * (pow(2.0, (double)k) - 1.0);
+                        double x = j == K + 1 ? b + reach : (a - reach > 0.0 ? a - reach : 0.0);
+                        for (int c = 0; c < 3; c++) Q[c] = O[c] + x * D[c];
+                        field_at(f, Q, qa, qs, qe, &qg, NULL, 0.0);
+                        for (int c = 0; c < 3; c++) { fa[c] += qa[c]; fs[c] += qs[c]; fe[c] += qe[c]; }
+                        fg += qg;
                     }
+                    for (int c = 0; c < 3; c++) {
+                        fa[c] /= (double)WORLD_PROBES;
+                        fs[c] /= (double)WORLD_PROBES;
+                        fe[c] /= (double)WORLD_PROBES;
+                    }
+                    fg /= (double)WORLD_PROBES;
                 }
                 for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; se[c] += count * fe[c]; }
                 sg += count * fg;

@@ -49,7 +49,7 @@ EMISSION_DRAW = schema.constant("EMISSION_DRAW", 1 << 40, "the number of a ray's
 UNIFORM_SHARE = schema.constant("UNIFORM_SHARE", 0.25, "the odds that free flight in a heterogeneous medium draws "
                                 "its distance uniformly in the media's box (field.py March.uniform_share)")
 WORLD_PROBES = schema.constant("WORLD_PROBES", 8, "the points past the media's box where a ray's stretch after it "
-                               "reads the world's heterogeneous medium (field.py March: the densest held)")
+                               "reads the world's heterogeneous medium (field.py March: their mean held)")
 TRACKING_SAFETY = schema.constant("TRACKING_SAFETY", 8.0, "the factor on a piece's second difference of sigma_t "
                                   "that makes its ratio-tracking majorant")
 
@@ -356,9 +356,10 @@ class March:
                     emit[r, c] += w[:, None] * found.emission
                     gs[r, c] += w * found.gs
         # 2b. An unbounded medium (the world's: Field.unbounded) before and after the box, held along the rest of the
-        # ray (the outer pieces): before it, its coefficients where the ray enters the box; after it, the densest
-        # (sigma_t summed over the channels, the first on a tie) of WORLD_PROBES points b + L (2^k - 1), L the box's
-        # diagonal (the stretch after the box is mostly a ray's way to infinity, which any density there stops).
+        # ray (the outer pieces): their coefficients' mean over WORLD_PROBES points, after the box b + L (2^k - 1)
+        # (k = 0, 1, ...; L the box's diagonal), before it max(a - L (2^k - 1), 0) (the stretch after the box is
+        # mostly a ray's way to infinity, which any density at a probe stops; the mean for the light it scatters
+        # and emits).
         out_a, out_s, out_e, out_g = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
         side = high - low
         L = float(np.sqrt((side[0] * side[0] + side[1] * side[1]) + side[2] * side[2])) if np.isfinite(side).all() else 0.0
@@ -370,11 +371,12 @@ class March:
                 some = np.flatnonzero((count > 0.0) & (width > 0.0))
                 if len(some):
                     found = field.at(O[some] + x[some, None] * D[some])
-                    for k in range(1, int(WORLD_PROBES) if side == 1 else 1):
-                        probe = field.at(O[some] + (x[some] + L * (2.0 ** k - 1.0))[:, None] * D[some])
-                        denser = (probe.sigma_a + probe.sigma_s).sum(axis=1) > (found.sigma_a + found.sigma_s).sum(axis=1)
-                        found = Sample(*(np.where(denser[:, None] if new.ndim == 2 else denser, new, old)
-                                         for new, old in zip(probe, found)))
+                    for k in range(1, int(WORLD_PROBES)):
+                        at = (x[some] + L * (2.0 ** k - 1.0) if side == 1
+                              else np.maximum(x[some] - L * (2.0 ** k - 1.0), 0.0))
+                        probe = field.at(O[some] + at[:, None] * D[some])
+                        found = Sample(*(old + new for old, new in zip(found, probe)))
+                    found = Sample(*(value / float(WORLD_PROBES) for value in found))
                     w = count[some]
                     out_a[some, side] += w[:, None] * found.sigma_a
                     out_s[some, side] += w[:, None] * found.sigma_s

@@ -606,7 +606,7 @@ def material_bounds(geometry, row: int) -> tuple:
 # volume is unbounded, use some practical large number instead"), and how far past the scene's box (by its diagonal)
 # Primer marches the world's heterogeneous medium before holding it (field.py March).
 WORLD_REACH = 10000.0
-WORLD_PAD = 2.0
+WORLD_PAD = 6.0
 
 
 def world_bounds(geometry) -> tuple:
