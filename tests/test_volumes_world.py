@@ -92,3 +92,15 @@ def test_both_kernels_render_a_scattering_world_that_thins_with_height_to_the_sa
     assert stats.kernels == "compiled"
     assert not any("heterogeneous world" in w for w in stats.warnings), stats.warnings
     assert_same_tracked_pixels(reference, compiled, rtol=0.05)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_heterogeneous_slab_in_a_heterogeneous_world_keeps_exp_of_both_integrals(kernels):
+    """An emitting floor seen down through an absorbing slab of density 2 z + 0.5 (z from 0.5 to 1.5: integral 2.5)
+    inside the falling world (integral 1.2615): the two fields share one march (the slab's finer step in the world's
+    box), and each channel keeps exp(-(2.5 + 1.2615) (1 - colour)) of the floor's light."""
+    from test_volumes_heterogeneous import height, scene_with, slab
+    scene = scene_with(slab(color=COLOR, density=height(2.0, 0.5)))
+    scene.world = World(color=np.zeros(3), volume=[("ABSORPTION", 1.0, {"color": COLOR, "density": falling()})])
+    expected = np.array([1.0, 2.0, 0.5]) * np.exp(-(2.5 + INTEGRAL) * (1.0 - COLOR))
+    np.testing.assert_allclose(image(scene, kernels), np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
