@@ -231,6 +231,14 @@ class Field:
             total = Sample(*(a + b for a, b in zip(total, part)))
         return total
 
+    def at_all(self, P: np.ndarray) -> Sample:
+        """`at` of camera-relative points P (n, 3) float64, POINTS_AT_ONCE at a time (the graph's registers stay
+        small)."""
+        if len(P) <= POINTS_AT_ONCE:
+            return self.at(P)
+        parts = [self.at(P[start:start + POINTS_AT_ONCE]) for start in range(0, len(P), POINTS_AT_ONCE)]
+        return Sample(*(np.concatenate(values) for values in zip(*parts)))
+
     def phase_at(self, P: np.ndarray) -> tuple:
         """The phase functions of its closures at camera-relative points P (n, 3) float64 (C closures): kinds (n, C)
         int64, their numbers (n, C, PHASE_PARAMETERS) float64 set up from each closure's inputs there
@@ -362,7 +370,8 @@ class March:
         # and emits).
         out_a, out_s, out_e, out_g = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
         side = high - low
-        L = float(np.sqrt((side[0] * side[0] + side[1] * side[1]) + side[2] * side[2])) if np.isfinite(side).all() else 0.0
+        L = (float(np.sqrt((side[0] * side[0] + side[1] * side[1]) + side[2] * side[2]))
+             if np.isfinite(side).all() else 0.0)
         for f, field in enumerate(fields):
             if not field.unbounded:
                 continue
@@ -370,11 +379,11 @@ class March:
             for side, (x, width) in enumerate(((a, a), (b, t - b))):
                 some = np.flatnonzero((count > 0.0) & (width > 0.0))
                 if len(some):
-                    found = field.at(O[some] + x[some, None] * D[some])
+                    found = field.at_all(O[some] + x[some, None] * D[some])
                     for k in range(1, int(WORLD_PROBES)):
                         at = (x[some] + L * (2.0 ** k - 1.0) if side == 1
                               else np.maximum(x[some] - L * (2.0 ** k - 1.0), 0.0))
-                        probe = field.at(O[some] + at[:, None] * D[some])
+                        probe = field.at_all(O[some] + at[:, None] * D[some])
                         found = Sample(*(old + new for old, new in zip(found, probe)))
                     found = Sample(*(value / float(WORLD_PROBES) for value in found))
                     w = count[some]
@@ -390,8 +399,8 @@ class March:
         self.sigma_t = pad(sig_a + sig_s, hom_t, out_a + out_s)
         self.sigma_s = pad(sig_s, hom_s, out_s)
         self.emission = pad(emit, hom_e, out_e)
-        self.gs = np.concatenate([(hom_gs + out_g[:, 0])[:, None], hom_gs[:, None] + gs, (hom_gs + out_g[:, 1])[:, None]],
-                                 axis=1)
+        self.gs = np.concatenate([(hom_gs + out_g[:, 0])[:, None], hom_gs[:, None] + gs,
+                                  (hom_gs + out_g[:, 1])[:, None]], axis=1)
         width = np.diff(self.edges, axis=1)                             # (n, K + 2), the last may be inf
         with np.errstate(invalid="ignore"):
             depth = np.where(self.sigma_t > 0.0, self.sigma_t * width[:, :, None], 0.0)
