@@ -104,3 +104,15 @@ def test_a_heterogeneous_slab_in_a_heterogeneous_world_keeps_exp_of_both_integra
     scene.world = World(color=np.zeros(3), volume=[("ABSORPTION", 1.0, {"color": COLOR, "density": falling()})])
     expected = np.array([1.0, 2.0, 0.5]) * np.exp(-(2.5 + INTEGRAL) * (1.0 - COLOR))
     np.testing.assert_allclose(image(scene, kernels), np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+
+
+def test_a_heterogeneous_world_medium_makes_an_escaping_camera_rays_alpha_opaque():
+    """On a transparent film a camera ray that escapes through a heterogeneous world medium has alpha 1 (its way to
+    infinity is held at the probes' mean density: render.escaping_alpha), as through a homogeneous one; no world
+    medium: 0."""
+    from core.render import escaping_alpha
+    from core.volumes import Media
+    world = [("SCATTER", 1.0, {"color": np.ones(3), "density": falling()})]
+    media = Media.of([Material(np.zeros(3), "Default")], world)
+    assert media.world_field is not None and media.world_field.unbounded and list(media.field_columns) == [-1]
+    assert escaping_alpha(media) == 1.0 and escaping_alpha(None) == 0.0
