@@ -1654,27 +1654,22 @@ PHASE_SOCKETS = {"IOR": "ior", "Backscatter": "backscatter", "Alpha": "alpha", "
 def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list = None, factors: tuple = ()) -> list:
     """The volume closures under `node` (a Volume output's link) as core/volumes reads them: [(name in
     VOLUME_BY_NAME, weight float, inputs dict)], the Mix and Add Shaders' constant factors multiplied out.
-    A material's closure may have inputs fed by links (graph.Link: a heterogeneous medium, core/volumes/field.py), and
-    a Mix Shader's linked factor weighs the closures under it per point (inputs["factors"]: [(Link, "fac" |
-    "one_minus")], as a surface's); the world's medium stays homogeneous: a world closure with a linked input is left
-    out with a warning. Volume nodes and phase functions Primer does not know are warned of."""
+    A material's or the world's closure may have inputs fed by links (graph.Link: a heterogeneous medium,
+    core/volumes/field.py; the world's: media.world_field_of), and a Mix Shader's linked factor weighs the closures
+    under it per point (inputs["factors"]: [(Link, "fac" | "one_minus")], as a surface's). Volume nodes and phase
+    functions Primer does not know are warned of."""
     out = [] if out is None else out
     node = _follow(node)
     if node is None or weight == 0.0:
         return out
     kind = node.bl_idname
-    varying = reader.kind == "material"                 # (a mesh's medium may vary; the world's is homogeneous)
     if kind == "ShaderNodeMixShader":
         fac = reader.input(node, "Fac", 0.5)
-        if _linked(fac) and varying:
+        if _linked(fac):
             for socket, mode in ((node.inputs[1], "one_minus"), (node.inputs[2], "fac")):
                 if socket.is_linked:
                     volume_closures(reader, socket.links[0].from_node, weight, out, factors + ((fac, mode),))
             return out
-        if _linked(fac):
-            reader.warn(node, "a linked factor mixes the world's volumes per point: a heterogeneous world medium, "
-                              "which Primer does not render; it mixes them half and half")
-            fac = 0.5
         fac = float(np.clip(np.mean(fac), 0.0, 1.0))
         for socket, share in ((node.inputs[1], 1.0 - fac), (node.inputs[2], fac)):
             if socket.is_linked:
@@ -1696,31 +1691,19 @@ def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list =
     elif kind in VOLUME_BY_BLENDER:
         name = VOLUME_BY_BLENDER[kind].name
         phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
-        inputs, linked = {}, []
+        inputs = {}
         if phase != "HENYEY_GREENSTEIN":                 # (core/volumes/phase.py; a heterogeneous medium: volume_of)
             inputs["phase"] = phase
             for socket, key in PHASE_SOCKETS.items():
                 if socket in node.inputs:
                     value = reader.input(node, socket, None)
-                    if _linked(value) and varying:          # (set up point by point: field.py Field.phase_at)
+                    if _linked(value):                      # (set up point by point: field.py Field.phase_at)
                         inputs[key] = value
                         continue
-                    if _linked(value):
-                        reader.warn(node, f"its {socket} is fed by a link: a heterogeneous world medium, which Primer "
-                                          "does not render; it reads the socket's own value")
-                        value = node.inputs[socket].default_value
                     inputs[key] = float(np.mean(value))
         for socket, key in VOLUME_SOCKETS.items():
             if socket in node.inputs:
-                value = reader.input(node, socket, None)
-                if _linked(value):
-                    linked.append(socket)
-                inputs[key] = value
-        if linked and not varying:
-            reader.warn(node, f"its {', '.join(linked)} {'is' if len(linked) == 1 else 'are'} fed by a link: a "
-                              "heterogeneous world medium, which Primer does not render; this volume closure is left "
-                              "out")
-            return out
+                inputs[key] = reader.input(node, socket, None)
         if kind == "ShaderNodeVolumePrincipled":       # (the grids a Volume object's medium multiplies in: vdb.py)
             for key in ("density_attribute", "color_attribute", "temperature_attribute"):
                 socket = node.inputs.get(key.replace("_", " ").title())     # (string sockets)

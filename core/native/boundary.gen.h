@@ -360,6 +360,8 @@
 #define EMISSION_DRAW 1099511627776
 /* the odds that free flight in a heterogeneous medium draws its distance uniformly in the media's box (field.py March.uniform_share) (core.volumes.field) */
 #define UNIFORM_SHARE 0.25
+/* the points past the media's box where a ray's stretch after it reads the world's heterogeneous medium (field.py March: their mean held) (core.volumes.field) */
+#define WORLD_PROBES 8
 /* the factor on a piece's second difference of sigma_t that makes its ratio-tracking majorant (core.volumes.field) */
 #define TRACKING_SAFETY 8.0
 /* a volume input's row in VolumeField.inputs (core.volumes.field) */
@@ -1273,7 +1275,7 @@ struct Sample2dArgs {
 struct VolumeField {
     const GraphTables *graph;               /* its one program and the images it reads */
     const VolumeField *next;                /* the render's next heterogeneous medium, or NULL */
-    int32_t column;                         /* its column of the MediaTables (how often a ray is in it: the volume stack's count there) */
+    int32_t column;                         /* its column of the MediaTables (how often a ray is in it: the volume stack's count there; -1: the world's, every ray once) */
     int32_t closures;                       /* C: its Volume output's closures */
     int32_t scatters;                       /* 1: some closure of it may scatter (Field.scatters) */
     int32_t emits;                          /* 1: some closure of it may emit (Field.emits) */

@@ -601,9 +601,13 @@ def object_blur_reason(scene: Scene, settings: RenderSettings) -> str:
 def escaping_alpha(media) -> float:
     """The film's alpha where a camera ray misses every surface on a transparent film: 1 - the mean over channels of
     the world's medium's transmittance to infinity (0 where its sigma_t > 0, 1 where it is 0), as Cycles makes a
-    transparent background's alpha 1 - mean(throughput) with the world's volume in the throughput."""
+    transparent background's alpha 1 - mean(throughput) with the world's volume in the throughput; 1 with a
+    heterogeneous world medium (one that is not 0 where rays leave its box takes all light to infinity: media.py
+    world_bounds)."""
     if media is None:
         return 0.0
+    if getattr(media, "world_field", None) is not None:
+        return 1.0
     return float(1.0 - np.mean(np.asarray(media.world.sigma_t, np.float64) <= 0.0))
 
 

@@ -16,7 +16,7 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
 - `phase.py`: phase functions, the volume's BSDF: the Phase menu's Henyey-Greenstein, Fournier-Forand, Draine,
   Rayleigh and Mie, each with eval, sample, pdf and its mean cosine; a medium carries one as a kind and four numbers.
 - `field.py`: heterogeneous media: a Volume output whose inputs are fed by nodes (`Field`, its node graph run at
-  points inside the medium), and the march of a ray through them (`March`: pieces of constant coefficients, on
+  points inside the medium; the world's, `media.world_field_of`, unbounded, every ray in it), and the march of a ray through them (`March`: pieces of constant coefficients, on
   which Beer-Lambert, emission and free flight hold piece by piece); its compiled twin `field.c` runs each Field's
   program at points (its `VolumeField` record, chained from `MediaTables.fields`) and marches rays the same way.
 """

@@ -263,11 +263,18 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
     }
 }
 
+/* How many times a ray with the volume stack `stack` is in the field f: its column's count, 1 in the world's
+ * (column -1: every ray, Media.along). */
+INLINE double field_count(const VolumeField *f, const VolumeStack *stack)
+{
+    return f->column < 0 ? 1.0 : (double)stack->count[f->column];
+}
+
 /* Whether a ray with the volume stack `stack` is in a heterogeneous medium (Stretch.varying). */
 INLINE int in_field(const MediaTables *media, const VolumeStack *stack)
 {
     for (const VolumeField *f = media != NULL ? media->fields : NULL; f != NULL; f = f->next)
-        if (stack->count[f->column] > 0) return 1;
+        if (field_count(f, stack) > 0.0) return 1;
     return 0;
 }
 
@@ -330,7 +337,7 @@ static double march_fields_at(const March *m, double x, double *sigma_t, double 
     double P[3], sa[3] = {0.0, 0.0, 0.0}, ss[3] = {0.0, 0.0, 0.0}, sg = 0.0;
     for (int c = 0; c < 3; c++) P[c] = m->O[c] + x * m->D[c];
     for (const VolumeField *f = m->media->fields; f != NULL; f = f->next) {
-        double count = (double)m->stack.count[f->column], fa[3], fs[3], fe[3], fg;
+        double count = field_count(f, &m->stack), fa[3], fs[3], fe[3], fg;
         if (!(count > 0.0)) continue;
         field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
         for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; }
@@ -346,7 +353,7 @@ static void march_fields_emission(const March *m, double x, double *emission)
     double P[3], se[3] = {0.0, 0.0, 0.0};
     for (int c = 0; c < 3; c++) P[c] = m->O[c] + x * m->D[c];
     for (const VolumeField *f = m->media->fields; f != NULL; f = f->next) {
-        double count = (double)m->stack.count[f->column], fa[3], fs[3], fe[3], fg;
+        double count = field_count(f, &m->stack), fa[3], fs[3], fe[3], fg;
         if (!(count > 0.0)) continue;
         field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
         for (int c = 0; c < 3; c++) se[c] += count * fe[c];
@@ -381,6 +388,12 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
     pieces = pieces != pieces ? 1.0 : pieces;
     int K = (int)pieces;
     double length = (b - a) / pieces, gs_h = g * ((sigma_s[0] + sigma_s[1]) + sigma_s[2]);
+    double diagonal = 0.0;                         /* (the box's: the world's probes after it) */
+    for (int c = 0; c < 3; c++) {
+        double side = media->field_high[c] - media->field_low[c];
+        diagonal += side * side;
+    }
+    diagonal = isfinite(diagonal) ? sqrt(diagonal) : 0.0;
     m->n = K + 2;
     m->edges[0] = 0.0;
     for (int j = 0; j < K; j++) m->edges[1 + j] = a + length * (double)j;
@@ -388,18 +401,37 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
     m->edges[K + 2] = t;
     for (int j = 0; j < K + 2; j++) {
         double sa[3] = {0.0, 0.0, 0.0}, ss[3] = {0.0, 0.0, 0.0}, se[3] = {0.0, 0.0, 0.0}, sg = 0.0;
-        if (j >= 1 && j <= K && b > a) {
-            double mid = a + length * ((double)(j - 1) + 0.5), P[3];
+        /* (an outer piece of some length: the world's medium, unbounded, held at its value where the ray enters
+         * the box, before it, or leaves it, after it) */
+        int outer = (j == 0 && a > 0.0) || (j == K + 1 && t - b > 0.0);
+        if ((j >= 1 && j <= K && b > a) || outer) {
+            double mid = j == 0 ? a : j == K + 1 ? b : a + length * ((double)(j - 1) + 0.5), P[3];
             for (int c = 0; c < 3; c++) P[c] = O[c] + mid * D[c];
             for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
-                double count = (double)stack->count[f->column], fa[3], fs[3], fe[3], fg;
-                if (!(count > 0.0)) continue;
+                double count = field_count(f, stack), fa[3], fs[3], fe[3], fg;
+                if (!(count > 0.0) || (outer && f->column >= 0)) continue;
                 field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
+                if (outer) {                           /* (before and after the box: the probes' mean, March) */
+                    for (int k = 1; k < WORLD_PROBES; k++) {
+                        double Q[3], qa[3], qs[3], qe[3], qg, reach = diagonal * (pow(2.0, (double)k) - 1.0);
+                        double x = j == K + 1 ? b + reach : (a - reach > 0.0 ? a - reach : 0.0);
+                        for (int c = 0; c < 3; c++) Q[c] = O[c] + x * D[c];
+                        field_at(f, Q, qa, qs, qe, &qg, NULL, 0.0);
+                        for (int c = 0; c < 3; c++) { fa[c] += qa[c]; fs[c] += qs[c]; fe[c] += qe[c]; }
+                        fg += qg;
+                    }
+                    for (int c = 0; c < 3; c++) {
+                        fa[c] /= (double)WORLD_PROBES;
+                        fs[c] /= (double)WORLD_PROBES;
+                        fe[c] /= (double)WORLD_PROBES;
+                    }
+                    fg /= (double)WORLD_PROBES;
+                }
                 for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; se[c] += count * fe[c]; }
                 sg += count * fg;
             }
         }
-        int inner = j >= 1 && j <= K;
+        int inner = (j >= 1 && j <= K) || outer;
         for (int c = 0; c < 3; c++) {
             m->sigma_t[j][c] = inner ? sigma_t[c] + (sa[c] + ss[c]) : sigma_t[c];
             m->sigma_s[j][c] = inner ? sigma_s[c] + ss[c] : sigma_s[c];
@@ -456,6 +488,7 @@ static void march_transmittance(const March *m, double s, double *T)
         T[c] = exp(-((m->tau[k][c] + flat) + bent));
     }
     double reach = m->M[k] + (mu > 0.0 ? mu * (s - start) : 0.0), target = 0.0;
+    if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0)) return;     /* (the control lets nothing through: T is 0) */
     for (int64_t i = 0; reach > 0.0; i++) {
         target += -log1p(-tracking_u(m->key, i));
         if (target >= reach) break;
@@ -507,7 +540,7 @@ static void march_emitted(const March *m, double *out)
     }
     int emits = 0;
     for (const VolumeField *f = m->tracked ? m->media->fields : NULL; f != NULL; f = f->next)
-        emits |= f->emits != 0 && m->stack.count[f->column] > 0;
+        emits |= f->emits != 0 && field_count(f, &m->stack) > 0.0;
     double a = m->edges[1], b = m->edges[m->n - 1];
     if (emits && b > a) {
         double s = a + tracking_u(m->key, (int64_t)EMISSION_DRAW) * (b - a), T[3], e_true[3];
@@ -612,7 +645,7 @@ static NOINLINE void phase_at(const MediaTables *media, const VolumeStack *stack
         phase->lobes = 1;
     }
     for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
-        double count = (double)stack->count[f->column], fa[3], fs[3], fe[3], fg;
+        double count = field_count(f, stack), fa[3], fs[3], fe[3], fg;
         if (!(count > 0.0) || !f->scatters) continue;
         field_at(f, P, fa, fs, fe, &fg, phase, count);
     }
@@ -759,7 +792,7 @@ INLINE int stretch_scatters(const MediaTables *media, const VolumeStack *stack, 
 {
     if (sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0) return 1;
     for (const VolumeField *f = media->fields; f != NULL; f = f->next)
-        if (f->scatters != 0 && stack->count[f->column] > 0) return 1;
+        if (f->scatters != 0 && field_count(f, stack) > 0.0) return 1;
     return 0;
 }
 

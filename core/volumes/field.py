@@ -48,6 +48,8 @@ EMISSION_DRAW = schema.constant("EMISSION_DRAW", 1 << 40, "the number of a ray's
                                 "emission's correction point (past any ratio-tracking walk's)")
 UNIFORM_SHARE = schema.constant("UNIFORM_SHARE", 0.25, "the odds that free flight in a heterogeneous medium draws "
                                 "its distance uniformly in the media's box (field.py March.uniform_share)")
+WORLD_PROBES = schema.constant("WORLD_PROBES", 8, "the points past the media's box where a ray's stretch after it "
+                               "reads the world's heterogeneous medium (field.py March: their mean held)")
 TRACKING_SAFETY = schema.constant("TRACKING_SAFETY", 8.0, "the factor on a piece's second difference of sigma_t "
                                   "that makes its ratio-tracking majorant")
 
@@ -143,11 +145,14 @@ class Field:
     Volume object's [grids.Grid], which its graph reads as the attributes "grid:NAME" and "attr:NAME" (an Attribute
     node's, Volume Info's), four floats each after the coordinates; origin: (3,) the
     world point the render's coordinates are relative to (geometry.origin); bounds: (low (3,), high (3,)) the
-    camera-relative box of its triangles (the march's extent and step)."""
+    camera-relative box of its triangles (the march's extent and step); step: the march's longest piece (None: the
+    box's diagonal / STEPS_ACROSS); unbounded: the world's medium (`world_field`), which every ray is in and which
+    goes on past its box (March: held at its value where the ray leaves the box)."""
 
-    def __init__(self, entries: list, space=None, origin=None, bounds=None):
+    def __init__(self, entries: list, space=None, origin=None, bounds=None, step=None, unbounded=False):
         from ..materials import graph as graph_
         self.entries = entries
+        self.unbounded = bool(unbounded)
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
         matrix, location, size, *rest = space if space is not None else (np.eye(4)[:3], np.zeros(3), np.ones(3))
         self.grids = list(rest[0]) if rest and rest[0] else []
@@ -162,7 +167,7 @@ class Field:
         self.low, self.high = ((np.full(3, -np.inf), np.full(3, np.inf)) if bounds is None
                                else (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)))
         diagonal = float(np.linalg.norm(self.high - self.low)) if np.isfinite(self.high - self.low).all() else 1.0
-        self.step = max(diagonal, 1e-6) / STEPS_ACROSS
+        self.step = max(diagonal, 1e-6) / STEPS_ACROSS if step is None else float(step)
         # One shader "node" per closure, its linked inputs the slots the program writes (graph.Compiler.compile).
         self.slots, nodes = [], []
         for k, (name, weight, inputs) in enumerate(entries):
@@ -225,6 +230,14 @@ class Field:
         for _, part, _ in self.closures(P):
             total = Sample(*(a + b for a, b in zip(total, part)))
         return total
+
+    def at_all(self, P: np.ndarray) -> Sample:
+        """`at` of camera-relative points P (n, 3) float64, POINTS_AT_ONCE at a time (the graph's registers stay
+        small)."""
+        if len(P) <= POINTS_AT_ONCE:
+            return self.at(P)
+        parts = [self.at(P[start:start + POINTS_AT_ONCE]) for start in range(0, len(P), POINTS_AT_ONCE)]
+        return Sample(*(np.concatenate(values) for values in zip(*parts)))
 
     def phase_at(self, P: np.ndarray) -> tuple:
         """The phase functions of its closures at camera-relative points P (n, 3) float64 (C closures): kinds (n, C)
@@ -350,14 +363,44 @@ class March:
                     sig_s[r, c] += w[:, None] * found.sigma_s
                     emit[r, c] += w[:, None] * found.emission
                     gs[r, c] += w * found.gs
+        # 2b. An unbounded medium (the world's: Field.unbounded) before and after the box, held along the rest of the
+        # ray (the outer pieces): their coefficients' mean over WORLD_PROBES points, after the box b + L (2^k - 1)
+        # (k = 0, 1, ...; L the box's diagonal), before it max(a - L (2^k - 1), 0) (the stretch after the box is
+        # mostly a ray's way to infinity, which any density at a probe stops; the mean for the light it scatters
+        # and emits).
+        out_a, out_s, out_e, out_g = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
+        side = high - low
+        L = (float(np.sqrt((side[0] * side[0] + side[1] * side[1]) + side[2] * side[2]))
+             if np.isfinite(side).all() else 0.0)
+        for f, field in enumerate(fields):
+            if not field.unbounded:
+                continue
+            count = counts[:, f].astype(np.float64)
+            for side, (x, width) in enumerate(((a, a), (b, t - b))):
+                some = np.flatnonzero((count > 0.0) & (width > 0.0))
+                if len(some):
+                    found = field.at_all(O[some] + x[some, None] * D[some])
+                    for k in range(1, int(WORLD_PROBES)):
+                        at = (x[some] + L * (2.0 ** k - 1.0) if side == 1
+                              else np.maximum(x[some] - L * (2.0 ** k - 1.0), 0.0))
+                        probe = field.at_all(O[some] + at[:, None] * D[some])
+                        found = Sample(*(old + new for old, new in zip(found, probe)))
+                    found = Sample(*(value / float(WORLD_PROBES) for value in found))
+                    w = count[some]
+                    out_a[some, side] += w[:, None] * found.sigma_a
+                    out_s[some, side] += w[:, None] * found.sigma_s
+                    out_e[some, side] += w[:, None] * found.emission
+                    out_g[some, side] += w * found.gs
         # 3. The homogeneous media all along, the pieces' optical depths.
         hom_t, hom_s, hom_e, hom_g = homogeneous
         hom_gs = hom_g * hom_s.sum(axis=1)
-        pad = lambda x, h: np.concatenate([h[:, None], h[:, None] + x, h[:, None]], axis=1)   # noqa: E731
-        self.sigma_t = pad(sig_a + sig_s, hom_t)
-        self.sigma_s = pad(sig_s, hom_s)
-        self.emission = pad(emit, hom_e)
-        self.gs = np.concatenate([hom_gs[:, None], hom_gs[:, None] + gs, hom_gs[:, None]], axis=1)
+        pad = lambda x, h, o: np.concatenate([h[:, None] + o[:, :1], h[:, None] + x, h[:, None] + o[:, 1:]],  # noqa
+                                             axis=1)
+        self.sigma_t = pad(sig_a + sig_s, hom_t, out_a + out_s)
+        self.sigma_s = pad(sig_s, hom_s, out_s)
+        self.emission = pad(emit, hom_e, out_e)
+        self.gs = np.concatenate([(hom_gs + out_g[:, 0])[:, None], hom_gs[:, None] + gs,
+                                  (hom_gs + out_g[:, 1])[:, None]], axis=1)
         width = np.diff(self.edges, axis=1)                             # (n, K + 2), the last may be inf
         with np.errstate(invalid="ignore"):
             depth = np.where(self.sigma_t > 0.0, self.sigma_t * width[:, :, None], 0.0)
@@ -587,7 +630,7 @@ class March:
             reach = self.M[rows, k] + np.where(mu > 0.0, mu * (s - start), 0.0)
         T = np.exp(-depth)
         target = np.zeros(n)
-        walking = reach > 0.0
+        walking = (reach > 0.0) & (T > 0.0).any(axis=1)     # (the control lets nothing through: T is 0)
         i = 0
         while walking.any():
             go = np.flatnonzero(walking)
@@ -777,7 +820,7 @@ def grid_tables(grids: list) -> dict:
 VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/volumes/field.py Field): its program and closures, for media.c's march.", [
     ("graph", ptr("GraphTables"), "its one program and the images it reads"),
     ("next", ptr("VolumeField"), "the render's next heterogeneous medium, or NULL"),
-    ("column", I32, "its column of the MediaTables (how often a ray is in it: the volume stack's count there)"),
+    ("column", I32, "its column of the MediaTables (how often a ray is in it: the volume stack's count there; -1: the world's, every ray once)"),
     ("closures", I32, "C: its Volume output's closures"),
     ("scatters", I32, "1: some closure of it may scatter (Field.scatters)"),
     ("emits", I32, "1: some closure of it may emit (Field.emits)"),

@@ -246,15 +246,18 @@ class Media:
     """
 
     def __init__(self, media: list, boundary, world: Optional[Coefficients] = None, fields: Optional[dict] = None,
-                 shadowless=None):
+                 shadowless=None, world_field=None):
         """media: one Coefficients or None per material row; boundary: (m + 1,) bool; world: Coefficients or None;
         fields: material row -> its heterogeneous medium (core/volumes/field.py Field; that row's Coefficients are
-        then zero), or None; shadowless: (m + 1,) bool the material rows whose media shadow rays pass, or None."""
+        then zero), or None; shadowless: (m + 1,) bool the material rows whose media shadow rays pass, or None;
+        world_field: the world's heterogeneous medium (a Field, `world_field_of`; world then None), or None."""
         rows = [i for i, medium in enumerate(media) if medium is not None]
         fields = fields or {}
-        # The heterogeneous media: each Field and its column.
-        self.fields = [fields[i] for i in rows if i in fields]
-        self.field_columns = np.array([k for k, i in enumerate(rows) if i in fields], np.int64)
+        # The heterogeneous media: each Field and its column (the world's last, column -1: every ray is in it once).
+        self.fields = [fields[i] for i in rows if i in fields] + ([world_field] if world_field is not None else [])
+        self.field_columns = np.array([k for k, i in enumerate(rows) if i in fields]
+                                      + ([-1] if world_field is not None else []), np.int64)
+        self.world_field = world_field
         self.column = np.full(len(media), -1, np.int64)
         self.column[rows] = np.arange(len(rows))
         pick = [media[i] for i in rows]
@@ -286,12 +289,13 @@ class Media:
                                            None if geometry is None else material_bounds(geometry, row))
         media = [(NOTHING if row in fields else medium_of(m.volume)) if getattr(m, "volume", None) else None
                  for row, m in enumerate(materials)]
-        world = medium_of(world_volume) if world_volume else None
+        world_field = world_field_of(world_volume, geometry) if world_volume and field_.linked(world_volume) else None
+        world = medium_of(world_volume) if world_volume and world_field is None else None
         boundary = [bool(getattr(m, "volume_only", False)) for m in materials]
-        if all(medium is None for medium in media) and world is None:
+        if all(medium is None for medium in media) and world is None and world_field is None:
             return None
         hidden, seen = shadow_visibility(geometry, [medium is not None for medium in media])
-        made = cls(media, boundary, world, fields, hidden & ~seen)
+        made = cls(media, boundary, world, fields, hidden & ~seen, world_field)
         if (hidden & seen).any():
             names = ", ".join(repr(getattr(materials[row], "name", row)) for row in np.flatnonzero(hidden & seen))
             made.notes.append(f"volumes: the medium of {names} is on objects hidden from shadow rays and on objects "
@@ -396,7 +400,9 @@ class Media:
         parameters[~other, 0] = g[~other]
         counts = None
         if self.fields and O is not None:
-            counts = inside[:, self.field_columns].astype(np.float64)
+            columns = self.field_columns
+            counts = np.where(columns >= 0, inside[:, np.maximum(columns, 0)] if inside.shape[1] else 0, 1)
+            counts = np.broadcast_to(counts, (len(inside), len(columns))).astype(np.float64)
         return Stretch(self.world.sigma_t + weights @ self.sigma_t, sigma_s,
                        self.world.emission + weights @ self.emission, g, O, D, counts, self.fields or None, kind,
                        parameters)
@@ -594,6 +600,43 @@ def material_bounds(geometry, row: int) -> tuple:
     if not np.isfinite(low).all():
         return geometry.bounds()
     return low, high
+
+
+# Cycles' box of the world's medium: +-WORLD_REACH around the world's origin on each axis (scene/volume.cpp: "World
+# volume is unbounded, use some practical large number instead"), and how far past the scene's box (by its diagonal)
+# Primer marches the world's heterogeneous medium before holding it (field.py March).
+WORLD_REACH = 10000.0
+WORLD_PAD = 6.0
+
+
+def world_bounds(geometry) -> tuple:
+    """The camera-relative box (low (3,), high (3,) float64) Primer marches a heterogeneous world medium in, and the
+    march's step float: the box of the scene's triangles and the camera (the point 0) padded by WORLD_PAD times its
+    diagonal on each side, within Cycles' box +-WORLD_REACH around the world's origin; the step the unpadded box's
+    diagonal / STEPS_ACROSS (the diagonal at least 1 cm). No geometry: the box +-WORLD_REACH, the step 0.1."""
+    from .field import STEPS_ACROSS
+    origin = np.zeros(3) if geometry is None else np.asarray(geometry.origin, np.float64)
+    reach_low, reach_high = -origin - WORLD_REACH, -origin + WORLD_REACH
+    if geometry is None:
+        return reach_low, reach_high, 0.1
+    low, high = (np.asarray(x, np.float64) for x in geometry.bounds())
+    low, high = np.minimum(low, 0.0), np.maximum(high, 0.0)
+    diagonal = max(float(np.linalg.norm(high - low)), 1e-2)
+    low, high = low - WORLD_PAD * diagonal, high + WORLD_PAD * diagonal
+    low, high = np.maximum(low, reach_low), np.minimum(high, reach_high)
+    return low, np.maximum(high, low), diagonal / STEPS_ACROSS
+
+
+def world_field_of(world_volume: list, geometry=None):
+    """The world's heterogeneous medium (field.Field, unbounded) of its Volume closures [(name, weight, inputs)]
+    (some input fed by a link): its graph reads a point's world position as Cycles' world volume shader does (its
+    Object, Generated and Position coordinates all the world point P: svm/tex_coord.h, a background's Generated is
+    its P), marched in `world_bounds`."""
+    from . import field as field_
+    low, high, step = world_bounds(geometry)
+    space = (np.eye(4)[:3], np.full(3, 0.5), np.full(3, 0.5))      # (generated = (P - 0.5) / 1 + 0.5 = P)
+    return field_.Field(world_volume, space, None if geometry is None else geometry.origin, (low, high), step,
+                        unbounded=True)
 
 
 def transmittance(sigma_t: np.ndarray, t: np.ndarray) -> np.ndarray:
