@@ -68,16 +68,16 @@ SCENES = {
     "modifiers_instances": (256, 256),
     "light_emissive": (128, 1024),
     "world_light": (256, 1024),
-    "world_hdri": (512, 1024),                  # an HDRI's sun: soft shadows, noisy per pixel at any count
+    "world_hdri": (64, 1024),                   # an HDRI's sun: noisy per pixel at any count (blocks: 2.9e-6 at 512)
     "materials_principled": (512, 4096),        # glossy highlights: Cycles needs many samples here
-    "cornell_box": (1024, 2048),                # path tracing, Cycles' default bounce limits
+    "cornell_box": (512, 2048),                 # path tracing, Cycles' default bounce limits (0.53 % at 1024)
     "materials_glass": (1024, 2048),            # glass, smooth and rough: caustics make it noisy per pixel
     "materials_textures": (256, 1024),          # image textures, a normal map, vertex colours, node groups
     "camera_ortho": (256, 1024),
     "camera_persp_shift": (128, 1024),
     "camera_fisheye_equidistant": (256, 256),
     "camera_fisheye_equisolid": (256, 512),
-    "volume_fog": (256, 1024),                  # homogeneous fog and heterogeneous smoke, single scattering
+    "volume_fog": (64, 1024),                   # homogeneous fog and heterogeneous smoke (blocks: 5.3e-6 at 256)
 }
 # Scenes whose comparison renders at half the scene's resolution (a quarter of the pixels, the same samples a pixel,
 # so the same noise a pixel and the same tolerance): three that render the most samples, which took 40-50 s each
@@ -137,7 +137,7 @@ VARIANTS = [
     # The Cornell box's tall box hidden from diffuse rays: still seen and casting its shadow, but no longer in
     # the way of (nor reflecting) the light between the other surfaces, path traced.
     Variant("tall_box_hidden_from_diffuse", "cornell_box", {"object:Tall Box.visible_diffuse": False, **HALF_SIZE},
-            1024, 2048),
+            512, 2048),
     # The ceiling lamp of light_emissive hidden from diffuse rays: it lights the room's diffuse surfaces by neither
     # light samples nor bounces (the world still does), only the Principled cylinder's specular layer.
     Variant("lamp_hidden_from_diffuse", "light_emissive", {"object:Ceiling Lamp.visible_diffuse": False}, 256, 1024),

@@ -30,8 +30,9 @@ def rows(n, vector):
     return np.tile(np.asarray(vector, np.float64), (n, 1))
 
 
-def sphere_grid(n_sin: int = 400, n_phi: int = 800):
-    """Midpoint directions over the sphere (n_sin n_phi, 3), uniform in z and azimuth, and the solid angle of each."""
+def sphere_grid(n_sin: int = 250, n_phi: int = 500):
+    """Midpoint directions over the sphere (n_sin n_phi, 3), uniform in z and azimuth, and the solid angle of each
+    (250 x 500 integrates this file's lobes, roughness 0.15 and up, to within 1e-5 of 400 x 800)."""
     z = -1.0 + (np.arange(n_sin) + 0.5) * (2.0 / n_sin)
     phi = (np.arange(n_phi) + 0.5) * (2.0 * math.pi / n_phi)
     Zs, P = np.meshgrid(z, phi, indexing="ij")
