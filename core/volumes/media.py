@@ -296,6 +296,8 @@ class Media:
             return None
         hidden, seen = shadow_visibility(geometry, [medium is not None for medium in media])
         made = cls(media, boundary, world, fields, hidden & ~seen, world_field)
+        if world_field is not None:
+            made.notes.append(WORLD_MEDIUM_NOTE)
         if (hidden & seen).any():
             names = ", ".join(repr(getattr(materials[row], "name", row)) for row in np.flatnonzero(hidden & seen))
             made.notes.append(f"volumes: the medium of {names} is on objects hidden from shadow rays and on objects "
@@ -607,6 +609,10 @@ def material_bounds(geometry, row: int) -> tuple:
 # Primer marches the world's heterogeneous medium before holding it (field.py March).
 WORLD_REACH = 10000.0
 WORLD_PAD = 6.0
+# What a render with a heterogeneous world medium is told of the approximation past the padded box (docs/blender.md,
+# Volumes: measured within the noise on a Noise fog under a sun; 1 % too bright padded by 2 diagonals, 7 % by 0.5).
+WORLD_MEDIUM_NOTE = (f"volumes: the world's heterogeneous medium is marched within {WORLD_PAD:g} diagonals of the "
+                     "scene's box (Cycles: out to +-10 km) and held past it at its mean over 8 points along each ray")
 
 
 def world_bounds(geometry) -> tuple:
