@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from core import render
+from core.integrators import subsurface
 from core.camera import Camera
 from core.geometry import primitives
 from core.lights.world import World
@@ -241,3 +242,72 @@ def test_blender_5_2_walks_random_walk_with_the_radius_itself_as_the_mean_free_p
                              "subsurface_method": bssrdf.RANDOM_WALK_MFP})
     k = np.flatnonzero(has(c.kind[0], BSDFFlags.SUBSURFACE))[0]
     np.testing.assert_allclose(c.params[0, k, bssrdf.RADIUS:bssrdf.RADIUS + 3], [0.5, 0.1, 0.05])
+
+
+def slab_over_ink(walk: dict, density: float) -> Scene:
+    """A wide subsurface slab (0.2 thick, `walk` its closure: a Subsurface Scattering node's inputs, or a Principled's
+    with "principled" set) seen from above in a black world, its lower half inside a volume-only box of an absorbing
+    medium (Volume Absorption, colour 0.5 and `density`: sigma_a = density / 2) that also holds, 0.5 below the slab, a
+    wide plane emitting 1 upwards."""
+    scene = Scene(camera=Camera.look_at((0.0, 0.0, 4.0), (0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), fov=math.radians(20)),
+                  world=World(color=np.zeros(3)))
+    inputs = {k: v for k, v in walk.items() if k != "principled"}
+    closure = ("PRINCIPLED", (1.0, 1.0, 1.0), inputs) if walk.get("principled") else ("SUBSURFACE", (1.0, 1.0, 1.0),
+                                                                                         inputs)
+    scene.materials = [Material(name="Wax", nodes=[closure]),
+                       Material(np.zeros(3), "Ink", nodes=[("TRANSPARENT", np.ones(3), {})],
+                                volume=[("ABSORPTION", 1.0, {"color": np.full(3, 0.5), "density": density})],
+                                volume_only=True),
+                       Material(name="Glow", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": (1.0, 1.0, 1.0)})])]
+    scene.add_mesh(primitives.box((44.0, 44.0, 0.2)), materials=np.array([0]))
+    scene.add_mesh(primitives.box((42.0, 42.0, 2.0), center=(0.0, 0.0, -1.0)), materials=np.array([1]))
+    scene.add_mesh(primitives.plane(40.0, center=(0.0, 0.0, -0.6)), materials=np.array([2]))
+    return scene
+
+
+def twice_e3(x: float) -> float:
+    """2 E3(x): the share of a uniform plane's light a Lambert surface at optical depth x above it receives through an
+    absorbing medium, the cosine-weighted mean of exp(-x / mu) over the hemisphere (midpoint rule, 1e-9 close)."""
+    mu = (np.arange(400000) + 0.5) / 400000
+    return float(2.0 * np.mean(mu * np.exp(-x / mu)))
+
+
+@pytest.mark.parametrize("walk", [
+    {"color": (0.9, 0.9, 0.9), "radius": (1.0, 1.0, 1.0), "scale": 0.3},
+    {"principled": True, "base_color": (0.9, 0.9, 0.9), "subsurface": 1.0, "subsurface_radius": (1.0, 1.0, 1.0),
+     "subsurface_scale": 3.0, "subsurface_method": bssrdf.BURLEY, "specular_ior_level": 0.0}],
+    ids=["random-walk", "christensen-burley"])
+def test_light_leaving_a_walk_inside_an_absorbing_medium_keeps_twice_e3_of_its_optical_depth(walk):
+    """The slab's top is outside the medium, its bottom inside: a walk from the top that leaves through the bottom
+    crosses the box's top face on its way (Cycles' volume stack update for subsurface, subsurface.media_across), so
+    the exit's light from the plane 0.5 below keeps 2 E3(sigma_a 0.5) of what it has without the medium (the walks
+    themselves the same: absorption alone changes no sample). Keeping the entry's media instead would give 1. Both
+    kernels render the same pixels."""
+    settings = dataclasses.replace(SETTINGS, width=8, height=8, samples=16, max_bounces=8)
+    inked, clear = (render.render(slab_over_ink(walk, density), settings) for density in (2.0, 0.0))
+    ratio = inked.image[..., :3].mean() / clear.image[..., :3].mean()
+    assert clear.image[..., :3].mean() > 0.01
+    assert ratio == pytest.approx(twice_e3(1.0 * 0.5), rel=0.03)          # (0.4432; 1 without the update)
+    assert not any("volume stack" in w for w in inked.stats.warnings)
+    assert_same_pixels(inked, render.render(slab_over_ink(walk, 2.0), dataclasses.replace(settings, kernels="compiled")))
+
+
+def test_the_walks_media_change_at_other_objects_media_boundaries_between_entry_and_exit_and_not_at_its_own():
+    """subsurface.media_across on segments about the ink box's top face (z = 0): down through it enters the ink, up
+    through it leaves it, along it (both ends above) changes nothing, nor does a walk in the box's own object; a
+    stack at 0 stays there leaving a medium it is not in (Cycles' volume_stack_enter_exit)."""
+    scene = slab_over_ink({"color": (0.9, 0.9, 0.9), "radius": (1.0, 1.0, 1.0), "scale": 0.3}, 2.0)
+    ctx = render.prepare(scene, dataclasses.replace(SETTINGS, width=8, height=8))
+    media, geometry = ctx.extra["media"], ctx.geometry
+    at = lambda *points: np.array(points, np.float64) - geometry.origin          # noqa: E731 (camera-relative)
+    material = geometry.triangle_data(np.arange(geometry.triangle_count), smooth=False).material
+    owners = geometry.owners(np.arange(geometry.triangle_count))
+    slab, ink = owners[material == 0][0], owners[material == 1][0]
+    column = media.column[1]
+    P0 = at((0.0, 0.0, 0.1), (0.3, 0.2, -0.1), (0.0, 0.0, 0.1), (0.0, 0.0, 0.1), (0.3, 0.2, -0.1))
+    P1 = at((0.1, 0.0, -0.1), (0.0, 0.0, 0.1), (2.0, 0.0, 0.1), (0.0, 0.0, -0.1), (0.0, 0.0, 0.1))
+    inside = media.start(5)
+    inside[[1, 3], column] = 1
+    owner = np.array([slab, slab, slab, ink, slab])
+    after = subsurface.media_across(ctx, inside, P0, P1, owner)[:, column]
+    np.testing.assert_array_equal(after, [1, 0, 0, 1, 0])

@@ -1267,6 +1267,10 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 const Surface *sf = H->s + owner[k];
                 inside = H->inside[owner[k]];
                 stack_cross(ds->media, &inside, sf->material, sf->backfacing, goes_through(s->kind, transmit));
+                if (walked && walk.exits)       /* (a walk's exit: the media across from its entry, walk_media) */
+                    walk_media(ds->media, ds->geometry, ds->intersect, ds->scene, sf->I, walk.P,
+                               owner_of(ds->geometry, H->geometry[owner[k]], H->prim[owner[k]], H->instance[owner[k]]),
+                               &inside);
                 medium_along(ds->media, &inside, sigma, emission);
                 March march;                    /* (through a heterogeneous medium: its march, field.c) */
                 if (!walked)                    /* (the walk's ray is no ray through the medium outside) */

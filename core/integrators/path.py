@@ -572,7 +572,8 @@ class PathTracing(Integrator):
                     path_shares = np.where(sets[:, None, None], parts.ray_shares, path_shares)
             if feats is not None and media is not None:
                 # (the media along this bounce's rays, where their paths still look: features.in_media)
-                rows = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived & looking[ray.rows])
+                rows = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived & looking[ray.rows]
+                                      & ~walked)
                 if len(rows):
                     features_.in_media(feats, media.along(ray.inside[rows], ray.O[rows], ray.D[rows]),
                                        np.where(ray.hits.hit[rows], ray.hits.t[rows], np.inf), camera_back(ctx),
@@ -580,7 +581,8 @@ class PathTracing(Integrator):
                                        / q[rows, None], feature_throughput[ray.rows[rows]])
             if scatters:
                 # The light the media scatter towards this bounce's rays, where the path may still bounce on them.
-                live = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived)
+                # (not along a walk's exit ray: no ray through the media, the exit is shaded at once, as in Cycles)
+                live = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived & ~walked)
                 if onward and len(live):
                     # Paths with Volume Bounces left scatter or go on (volume.multiple_scattering).
                     multi = live[volume_.volume_bounces_left(ctx, volume[ray.rows[live]], bounces[live])]

@@ -381,3 +381,43 @@ INLINE void walk_exit_shader(ShaderResult *sd)
     for (int j = 0; j < 3; j++) { c->weight[j] = 1.0; c->N[j] = N[j]; }
     sd->n = 1;
 }
+
+/* subsurface.media_across for one walk that entered the object `owner` at P0 and left it at P1 (3 each): its stack
+ * updated by every surface of another object with a medium on the segment from P0 to P1, entered through a front
+ * face and left through a back face as the segment meets them (stack_cross; Cycles'
+ * integrator_volume_stack_update_for_subsurface), passing CAMERA_MEDIA_HITS surfaces at most. */
+static void walk_media(const MediaTables *media, const GeometryTables *geometry, Intersect8 intersect, void *scene,
+                       const double *P0, const double *P1, int64_t owner, VolumeStack *stack)
+{
+    if (media->count == 0) return;                  /* (the world's medium alone: no mesh to go into or out of) */
+    double gap[3], D[3], P[3];
+    for (int c = 0; c < 3; c++) gap[c] = P1[c] - P0[c];
+    double length = sqrt(dot3(gap, gap));
+    if (!(length > 0.0)) return;
+    for (int c = 0; c < 3; c++) { D[c] = gap[c] / length; P[c] = P0[c]; }
+    for (int step = 0; step < CAMERA_MEDIA_HITS; step++) {
+        /* a. The next surface along the segment, short of its end. */
+        double from[3];
+        for (int c = 0; c < 3; c++) from[c] = P[c] - P0[c];
+        double reach = length - dot3(from, D);
+        if (!(reach > 0.0)) return;
+        RayHitPacket packet;
+        int valid[PACKET] ALIGNED(32);
+        set_lane(&packet.ray, 0, P, D, reach);
+        close_packet(&packet.ray, valid, 1);
+        clear_hits(&packet);
+        intersect(valid, scene, &packet, NULL);
+        if (packet.hit.geomID[0] == INVALID_ID) return;
+        int64_t g = (int64_t)packet.hit.geomID[0], prim = (int64_t)packet.hit.primID[0];
+        int64_t instance = instance_of(&packet.hit, 0);
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        hit_triangle(geometry, g, prim, instance, 0, STILL_TIME, &tri);   /* (a render with media moves no object) */
+        Surface s;
+        surface_at(P, D, (double)packet.ray.tfar[0], (double)packet.hit.u[0], (double)packet.hit.v[0], &tri, 0, &s);
+        /* b. Another object's medium entered or left (the walk's own object: the walk enters and leaves it). */
+        stack_cross(media, stack, s.material, s.backfacing, owner_of(geometry, g, prim, instance) != owner);
+        /* c. On from just past it (shadows.spawn_ray, on the side D goes to). */
+        double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;
+        for (int c = 0; c < 3; c++) P[c] = s.I[c] + (s.offset * side) * s.Ng[c];
+    }
+}

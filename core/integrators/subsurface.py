@@ -37,6 +37,11 @@ entry, as the Bevel node does (shader_rays.local_hits):
 The exit is then lit as a walk's (the white Lambert of subsurface_shader), seen from outside along its face normal.
 After any diffuse bounce the closure is a Lambert one of its weight instead (burley_as_diffuse).
 
+The path leaves at another point than it entered, so the media it is in may differ (its exit inside another object's
+medium, or outside one it entered from): `media_across` updates its volume stack by the volume boundaries of other
+objects on the segment from the entry to the exit (Cycles' integrator_volume_stack_update_for_subsurface; the walk's
+own object is left out, as the walk itself enters and leaves it).
+
 The compiled twin is core/integrators/subsurface.c (subsurface_walk and subsurface_disk, one path at a time, with the
 same sampling dimensions: the two kernels agree to float32 rounding).
 """
@@ -55,6 +60,9 @@ from ..materials.lambert import Lambert
 from ..native import schema
 from ..sampling import sobol as sampling
 from ..volumes.phase import HenyeyGreenstein, henyey_greenstein
+from ..geometry.surface import surface_at_hits
+from . import shadows
+from .rays import CAMERA_MEDIA_HITS
 from .shader_rays import LOCAL_STEPS, local_hits, orthonormals
 
 MAX_STEPS = 256                     # Cycles' BSSRDF_MAX_BOUNCES
@@ -331,6 +339,39 @@ def disk(ctx, surface, rows: np.ndarray, params: np.ndarray, weight: np.ndarray,
     prim_uv = (np.where(exits, hit_prim[at, chosen], 0), np.where(exits, hit_u[at, chosen], 0.0),
                np.where(exits, hit_v[at, chosen], 0.0))
     return exits, prim_uv, P, hit_N[at, chosen], np.maximum(t, 1e-6), np.where(exits[:, None], kept, 0.0)
+
+
+def media_across(ctx, inside: np.ndarray, P0: np.ndarray, P1: np.ndarray, owner: np.ndarray) -> np.ndarray:
+    """The volume stacks (k, V) int16 of paths that entered a BSSRDF's object `owner` (k,) at P0 (k, 3) in the media
+    `inside` (k, V) and left it at P1 (k, 3): updated by every surface of another object with a medium on the segment
+    from P0 to P1, entered through a front face and left through a back face as the segment meets them (Media.crossed;
+    Cycles' integrator_volume_stack_update_for_subsurface), passing CAMERA_MEDIA_HITS surfaces at most; a copy."""
+    media = ctx.extra["media"]
+    inside = inside.copy()
+    if inside.shape[1] == 0 or len(P0) == 0:
+        return inside                               # (the world's medium alone: no mesh to go into or out of)
+    gap = P1 - P0
+    length = np.sqrt(np.einsum("ij,ij->i", gap, gap))
+    D = np.divide(gap, length[:, None], out=np.zeros_like(gap), where=length[:, None] > 0.0)
+    O = P0.copy()
+    alive = np.flatnonzero(length > 0.0)
+    for _ in range(CAMERA_MEDIA_HITS):
+        reach = length[alive] - np.einsum("ij,ij->i", O[alive] - P0[alive], D[alive])
+        alive = alive[reach > 0.0]
+        if len(alive) == 0:
+            break
+        found = ctx.geometry.tracer.intersect(O[alive], D[alive], reach[reach > 0.0])
+        hit = np.flatnonzero(found.hit)
+        if len(hit) == 0:
+            break
+        rows = alive[hit]
+        surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
+                                  found.t[hit])
+        other = ctx.geometry.owners(found.prim[hit]) != owner[rows]
+        inside[rows] = media.crossed(inside[rows], surface.material, surface.backfacing, other)
+        O[rows] = shadows.spawn_ray(surface.I, surface.Ng, D[rows], shadows.error_bound(surface.I, surface.vertices))
+        alive = rows
+    return inside
 
 
 def burley_as_diffuse(shader: ShaderResult, ancestor: np.ndarray) -> ShaderResult:

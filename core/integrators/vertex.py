@@ -397,6 +397,11 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         attenuation = stretch.transmittance(t_hit)
         if len(walks):
             attenuation[walks] = 1.0                     # (the walk's ray is no ray through the medium outside)
+            # A walk's exit in the media it is in there: its stack across the segment from the entry to the exit.
+            left = np.flatnonzero(exits)
+            if len(left):
+                ray_inside[walks[left]] = subsurface_.media_across(
+                    ctx, ray_inside[walks[left]], surface.I[at[left]], P[left], ctx.geometry.owners(surface.prim[at[left]]))
     ray = BsdfRay(go, O, D, hits, weight, bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
                   after, ray_inside, attenuation, receiver, bs.slot[go], ao)
     for kind, mask in (("reflect", ~ray.transmit & ~portal), ("refract", ray.transmit & ~portal), ("portal", portal)):

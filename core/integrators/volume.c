@@ -478,6 +478,7 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
     for (int64_t i = 0; i < rays->n; i++) {
         PathRay *r = rays->r + i;
         int64_t h = r->h;
+        if (r->walked) continue;    /* (a walk's exit ray is no ray through the media: the exit is shaded at once) */
         /* a. The bounce limits, as next_vertices counts them. */
         int see_through = is_transparent_bounce(r->kind);
         int boundary = see_through && is_boundary(ds->media, H->s[h].material);

@@ -627,17 +627,12 @@ def walks_subsurface(scene: Scene) -> bool:
 def subsurface_warnings(scene: Scene, settings: RenderSettings, warnings: list) -> None:
     """Add to `warnings` what the subsurface walk of `scene` leaves out (both kernels walk BSSRDFs the same way,
     core/integrators/subsurface.py and subsurface.c; the direct tracer as Cycles does at Max Bounces 0): Whitted's
-    tracer gives it no light; a walk's exit keeps its entry's media."""
+    tracer gives it no light. (A walk's exit takes the media across from its entry, as Cycles: subsurface.media_across.)"""
     if not walks_subsurface(scene):
         return
     if settings.integrator == "whitted":
         note = ("subsurface: Whitted's tracer does not walk subsurface scattering; the Subsurface Weight's share of "
                 "the surface gets no light (the path and direct tracers walk it, as Cycles)")
-        if note not in warnings:
-            warnings.append(note)
-    if any(material.volume for material in scene.materials):
-        note = ("subsurface: a walk's exit keeps the medium its entry was in (Cycles re-reads the volume stack there, "
-                "for an object inside or holding a volume)")
         if note not in warnings:
             warnings.append(note)
 
