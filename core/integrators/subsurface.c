@@ -7,7 +7,7 @@
  * direct.c bsdf_rays calls it where a sampled closure is a BSSRDF; path.c lights the exit as a white Lambert.
  * Christensen-Burley's closures (SUBSURFACE_DISK) take subsurface_disk instead: Cycles' disk projection, a chord
  * probed through a disk about the entry (subsurface.disk), and after a diffuse bounce are Lambert closures
- * (burley_as_diffuse). */
+ * (burley_as_diffuse). A walk's exit takes the media across from its entry (walk_media, subsurface.media_across). */
 
 /* MAX_STEPS, SIMILARITY_STEPS, MIN_ALPHA, OWN_HITS and THROUGHPUT_EPSILON are subsurface.py's (SUBSURFACE_DIMENSION:
  * boundary.gen.h). */
