@@ -1046,6 +1046,9 @@ lower importance bounds' shares, 1 the upper bounds' share alone (the renders'),
 -1 still (MeshEmitters.mesh), or NULL: none moves */
     const void *geometry;                   /* the scene's GeometryTables (core/geometry/tables.py), where a moving emitter is placed at a
 time (with mesh; untyped: the lights sit below the geometry), or NULL */
+    const int64_t *partner;                 /* (t,) the other triangle of each one's quad lamp (MeshEmitters.partner), -1 alone, or NULL:
+no quads */
+    const double *rect;                     /* (t, 3, 3) each quad triangle's rectangle [corner, edge u, edge v] (MeshEmitters.rect), or NULL */
 };
 
 /* primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points. */
@@ -1365,7 +1368,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
-    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1646818140122983101);
+    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(4521009592404648916);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "LampGraph") == 0) return UINT64_C(3628791564941194139);
     if (strcmp(name, "WorldMapArgs") == 0) return UINT64_C(7748268880605941743);
