@@ -1,7 +1,8 @@
 /* Emissive meshes as one light: core/lights/emitters.py. A triangle chosen by the light tree
  * (core/lights/light_tree.py), then a direction
- * towards it: uniform over the spherical triangle near it (Arvo), uniform in its area far from it; a moving
- * emitter's where it is at the path's time (emitter_at). */
+ * towards it: uniform over the spherical triangle near it (Arvo), uniform in its area far from it; a quad lamp (two
+ * triangles as one emitter, MeshEmitters.partner) over its spherical rectangle (Urena et al. 2013) or its area; a
+ * moving emitter's where it is at the path's time (emitter_at). */
 
 #define EMIT_FRONT 1
 #define EMIT_BACK 2

@@ -13,9 +13,16 @@ Cycles. Then a direction towards it, by one of two strategies, as Cycles chooses
   pdf = 1 / Omega, the triangle's solid angle;
 - far from it, a point uniform in its area: pdf = t^2 / (|cos theta_light| A).
 
+A quad lamp (two triangles of one object and material, constant emission, that make a rectangle: `quad_partners`) is
+one emitter, one leaf of the tree, sampled near it uniformly over the spherical rectangle it subtends (Urena, Fajardo
+and King, "An area-preserving parametrization for spherical rectangles", 2013: pdf = 1 / Omega of the rectangle), far
+from it uniformly in its area; no number goes to a pick between its two halves, and one 2D point covers it all
+(docs/performance.md, "A quad lamp sampled as one spherical rectangle"). Cycles samples a mesh lamp's two triangles.
+
 The pdf of a direction is the pick probability times that. A BSDF-sampled ray that hits an emissive
 triangle asks `pdf_of_hits` for the pdf the light would have given its direction, for MIS: the tree
-gives the same pick probability for that triangle from the ray's origin, walking its path.
+gives the same pick probability for that triangle from the ray's origin, walking its path (either triangle of a quad:
+the quad's pdf).
 An emitter that moves over the shutter (object or deformation motion blur) is sampled where it is at the
 shading point's time (its corners placed as the geometry places them for the rays, Cycles' triangle_light_sample
 with motion_triangle_vertices at the path's time), and a BSDF ray that hits it gets the pdf of its corners at the
