@@ -11,7 +11,8 @@ import pytest
 
 from core.lights import MeshEmitters
 from core.lights.base import LightContext, compiled_sample
-from core.lights.emitters import (quad_partners, rectangle_solid_angle, solid_angle, spherical_rectangle_sample)
+from core.lights.emitters import (compiled_pdf_of_hits, quad_partners, rectangle_solid_angle, solid_angle,
+                                  spherical_rectangle_sample)
 
 
 def rectangle_factor(x: float, y: float) -> float:
@@ -101,6 +102,7 @@ def test_a_quads_pdf_of_hits_on_either_triangle_integrates_to_one_and_is_the_sam
     pick = emitters.pick_probability(P[:1], np.array([0]))[0]
     assert len(rows) > 100
     assert pdf.sum() * 4 * math.pi / n / pick == pytest.approx(1.0, abs=4 / math.sqrt(len(rows)))
+    np.testing.assert_allclose(compiled_pdf_of_hits(emitters, P[rows], triangle, D[rows], t[rows]), pdf, rtol=1e-9)
     # The light samples' pdf is the BSDF hits' (on whichever triangle the sample lands), and lands on the quad.
     m = 2000
     sample = emitters.sample(P[:m], rng.random((m, 2)))
@@ -157,7 +159,8 @@ def polygon_factor(polygon: np.ndarray, normal: np.ndarray) -> float:
 
 def test_compiled_quad_samples_are_the_pythons():
     """emitters.c samples quads as Python does: the same directions, distances, pdfs and strengths, near the lamps
-    (spherical rectangles) and far from them (area sampling)."""
+    (spherical rectangles) and far from them (area sampling); and its pdf for a BSDF ray that hits either triangle of
+    a quad along a sample's direction is the sample's."""
     rng = np.random.default_rng(5)
     R, _ = random_rectangles(rng, 30)
     corners = np.concatenate([quad(*r) for r in R] + [rng.normal(size=(5, 3, 3))])   # 30 quads, 5 triangles
@@ -173,6 +176,11 @@ def test_compiled_quad_samples_are_the_pythons():
     np.testing.assert_allclose(found.L, expected.L, atol=1e-6)
     np.testing.assert_allclose(found.distance, expected.distance, rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(found.strength, expected.strength, rtol=1e-6)
+    # A BSDF ray along a sample's direction that hits either triangle of its quad gets the sample's pdf in C too.
+    quads = np.flatnonzero((emitters.partner[expected.emitter] >= 0) & (expected.pdf > 0))
+    for index in (expected.emitter[quads], emitters.partner[expected.emitter[quads]]):
+        np.testing.assert_allclose(compiled_pdf_of_hits(emitters, points[quads], index, expected.L[quads],
+                                                        expected.distance[quads]), expected.pdf[quads], rtol=1e-6)
 
 
 def test_only_exact_rectangles_of_one_key_pair_into_quads():

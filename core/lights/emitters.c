@@ -568,3 +568,12 @@ static void emitter_pick_probability_rows(const EmitterPickArgs *a)
     for (int64_t k = 0; k < a->n; k++)
         a->probability[k] = emitter_pick_probability(a->emitters, a->index[k], a->points + 3 * k, a->normals + 3 * k);
 }
+
+/* MeshEmitters.pdf_of_hits over arrays (for the tests): origins, normals, directions (n, 3), t (n,), index (n,)
+ * int64 -> pdf (n,) float64, at the frame. */
+static void emitter_pdf_rows(const EmitterPdfArgs *a)
+{
+    for (int64_t k = 0; k < a->n; k++)
+        a->pdf[k] = emitter_pdf(a->emitters, a->index[k], a->origins + 3 * k, a->normals + 3 * k, a->directions + 3 * k,
+                                a->t[k], -1.0);
+}

@@ -772,6 +772,17 @@ EmitterPickArgs = schema.record("EmitterPickArgs", "primer_emitter_pick's (and _
 ])
 schema.function("primer_emitter_pick", "emitter_pick_rows", EmitterPickArgs)
 schema.function("primer_emitter_pick_probability", "emitter_pick_probability_rows", EmitterPickArgs)
+EmitterPdfArgs = schema.record("EmitterPdfArgs", "primer_emitter_pdf's arguments: MeshEmitters.pdf_of_hits for n rays (the frame).", [
+    ("emitters", ptr("EmitterTables"), ""),
+    ("n", I64, ""),
+    ("origins", ptr(F64), "(n, 3)"),
+    ("normals", ptr(F64), "(n, 3) (zero: unknown)"),
+    ("directions", ptr(F64), "(n, 3) unit"),
+    ("t", ptr(F64), "(n,) the distances to the hits"),
+    ("index", ptr(I64), "(n,) the emitters hit"),
+    ("pdf", out(F64), "(n,)"),
+])
+schema.function("primer_emitter_pdf", "emitter_pdf_rows", EmitterPdfArgs)
 
 
 def compiled_pick(emitters: MeshEmitters, points: np.ndarray, N: np.ndarray, u: np.ndarray):
@@ -794,3 +805,16 @@ def compiled_pick_probability(emitters: MeshEmitters, points: np.ndarray, N: np.
         emitters=emitters.tables().record, n=len(points), points=c(points, np.float64), normals=c(N, np.float64),
         index=np.array(index, np.int64), probability=probability))
     return probability
+
+
+def compiled_pdf_of_hits(emitters: MeshEmitters, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray,
+                         N: Optional[np.ndarray] = None) -> np.ndarray:
+    """MeshEmitters.pdf_of_hits in C (emitters.c emitter_pdf, what direct.c gives a BSDF ray's hit), for the tests:
+    origins, D (n, 3), index (n,) int64, t (n,), N (n, 3) or None -> (n,) float64."""
+    c = library.contiguous
+    pdf = np.empty(len(origins))
+    library.call("primer_emitter_pdf", EmitterPdfArgs(
+        emitters=emitters.tables().record, n=len(origins), origins=c(origins, np.float64),
+        normals=c(unknown_normals(origins, N), np.float64), directions=c(D, np.float64), t=c(t, np.float64),
+        index=c(index, np.int64), pdf=pdf))
+    return pdf
