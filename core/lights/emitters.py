@@ -444,27 +444,39 @@ def quad_partners(corners: np.ndarray, normal: np.ndarray, emission: np.ndarray,
         a, b = V[:, (k + 1) % 3] - V[:, k], V[:, (k + 2) % 3] - V[:, k]
         cos = np.einsum("ij,ij->i", a, b) / np.sqrt(np.einsum("ij,ij->i", a, a) * np.einsum("ij,ij->i", b, b))
         right = np.where((np.abs(cos) <= QUAD_TOLERANCE) & (right < 0), k, right)
-    by_edge = {}
-    for row in np.flatnonzero(right >= 0):
-        k = right[row]
-        b, c = V[row, (k + 1) % 3].tobytes(), V[row, (k + 2) % 3].tobytes()
-        by_edge.setdefault((int(key[candidates[row]]), min(b, c), max(b, c)), []).append(row)
+    # Group the right-angled ones by (key, hypotenuse): its two corners in a canonical order (lexicographic).
+    rows = np.flatnonzero(right >= 0)
+    k = right[rows]
+    B, C = V[rows, (k + 1) % 3], V[rows, (k + 2) % 3]
+    swap = (B[:, 0] > C[:, 0]) | ((B[:, 0] == C[:, 0]) & ((B[:, 1] > C[:, 1]) | ((B[:, 1] == C[:, 1]) & (B[:, 2] > C[:, 2]))))
+    first, second = np.where(swap[:, None], C, B), np.where(swap[:, None], B, C)
+    edge = np.concatenate([key[candidates[rows]].astype(np.float64)[:, None], first, second], axis=1)
     partner = np.full(t, -1, np.int64)
     rect = np.zeros((t, 3, 3))
-    for rows in by_edge.values():
-        if len(rows) != 2:
-            continue
-        i, j = sorted(int(candidates[r]) for r in rows)
-        ki, kj = right[np.searchsorted(candidates, i)], right[np.searchsorted(candidates, j)]
-        a, b, c = corners[i, ki], corners[i, (ki + 1) % 3], corners[i, (ki + 2) % 3]
-        d = corners[j, kj]
-        size = np.sqrt(np.dot(b - a, b - a)) + np.sqrt(np.dot(c - a, c - a))
-        if not (np.abs(a + d - b - c).max() <= QUAD_TOLERANCE * size and np.dot(normal[i], normal[j]) > 0.0
-                and np.array_equal(emission[i], emission[j]) and sides[i] == sides[j]):
-            continue
-        partner[i], partner[j] = j, i
-        u, v = b - a, c - a
-        rect[i] = rect[j] = (a, u, v - (np.dot(v, u) / np.dot(u, u)) * u)      # (exactly right-angled)
+    if not len(rows):
+        return None, None
+    _, group, count = np.unique(edge, axis=0, return_inverse=True, return_counts=True)
+    group = group.ravel()
+    pairs = np.flatnonzero(count[group] == 2)                   # (an edge of exactly two such triangles)
+    pairs = pairs[np.argsort(group[pairs], kind="stable")].reshape(-1, 2)
+    if not len(pairs):
+        return None, None
+    i, j = candidates[rows[pairs[:, 0]]], candidates[rows[pairs[:, 1]]]
+    ki, kj = k[pairs[:, 0]], k[pairs[:, 1]]
+    lead = np.minimum(i, j)
+    j, ki, kj = np.maximum(i, j), np.where(i < j, ki, kj), np.where(i < j, kj, ki)
+    i = lead
+    a, b, c = corners[i, ki], corners[i, (ki + 1) % 3], corners[i, (ki + 2) % 3]
+    d = corners[j, kj]
+    u, v = b - a, c - a
+    size = np.sqrt(np.einsum("ij,ij->i", u, u)) + np.sqrt(np.einsum("ij,ij->i", v, v))
+    exact = ((np.abs(a + d - b - c).max(axis=1) <= QUAD_TOLERANCE * size)
+             & (np.einsum("ij,ij->i", normal[i], normal[j]) > 0.0)
+             & np.all(emission[i] == emission[j], axis=1) & (sides[i] == sides[j]))
+    i, j, a, u, v = i[exact], j[exact], a[exact], u[exact], v[exact]
+    partner[i], partner[j] = j, i
+    v = v - (np.einsum("ij,ij->i", v, u) / np.einsum("ij,ij->i", u, u))[:, None] * u      # (exactly right-angled)
+    rect[i] = rect[j] = np.stack([a, u, v], axis=1)
     if not (partner >= 0).any():
         return None, None
     return partner, rect
