@@ -212,3 +212,21 @@ def test_only_exact_rectangles_of_one_key_pair_into_quads():
     near[1, 0] += [1e-7, 0.0, 0.0]                                   # float32's rounding of a rectangle: still a quad
     near[0, 0] += [0.0, 0.0, 1e-7]
     assert pairs(near)
+
+
+def test_a_plane_lamp_is_exported_as_one_quad_and_a_textured_one_as_triangles(monkeypatch):
+    """The export (emitters.from_geometry) makes a plane lamp's two triangles one quad, one leaf of the light tree; a
+    textured plane lamp (its emission varies over it) stays two triangles, and so does every lamp with
+    emitters.QUADS off (PRIMER_QUADS=0)."""
+    from test_emitters_world import emitter_over_floor, half_textured_emitter_over_floor
+    from core import render
+    from core.lights import emitters as emitters_
+    from core.scene import RenderSettings
+    settings = RenderSettings(width=2, height=2, samples=1)
+    plain = render.prepare(emitter_over_floor(1.0, 0.7, 3.0, 0.6), settings).extra["emitters"]
+    assert list(plain.partner) == [1, 0] and len(plain.tree.nodes) == 1
+    textured = render.prepare(half_textured_emitter_over_floor(1.0, 3.0, 1.0, 0.7, 0.5), settings).extra["emitters"]
+    assert textured.partner is None and len(textured.tree.nodes) == 3
+    monkeypatch.setattr(emitters_, "QUADS", False)
+    off = render.prepare(emitter_over_floor(1.0, 0.7, 3.0, 0.6), settings).extra["emitters"]
+    assert off.partner is None and len(off.tree.nodes) == 3
