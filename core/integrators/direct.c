@@ -876,7 +876,9 @@ INLINE void skip_own_triangle(SampleBlock *b, const BlockHits *H, const DirectSe
     for (int64_t k = 0; k < b->n; k++) {
         int64_t h = b->hit[k];
         int64_t own = flat_prim(ds->geometry, H->geometry[h], H->prim[h], H->instance[h]);
-        if (b->emitter[k] < 0 || e->prim[b->emitter[k]] != own) continue;
+        if (b->emitter[k] < 0) continue;
+        int64_t other = e->partner != NULL ? e->partner[b->emitter[k]] : -1;    /* (a quad: either triangle) */
+        if (e->prim[b->emitter[k]] != own && !(other >= 0 && e->prim[other] == own)) continue;
         double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
         double n[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, ng[3] = {b->Ng[0][k], b->Ng[1][k], b->Ng[2][k]};
         double NgL = dot3(ng, L);

@@ -464,7 +464,7 @@ def lights_itself(surface, emitters, ls, NL: np.ndarray, NgL: np.ndarray) -> np.
     # Cycles skips them (shade_surface.h, integrate_surface_direct_light): a point on its own triangle sees it
     # edge-on, yet the triangle's sample from there covers a hemisphere, so that a reflective emitter's back
     # (or front) would reflect its own emission. Ng.L > 0 for reflection, Ng.L < 0 for light through it from behind.
-    own = emitters.prim[ls.emitter] == surface.prim
+    own = emitters.same_emitter(ls.emitter, surface.prim)       # (a quad: either of its triangles)
     return own & (np.where(NL < 0.0, -NgL, NgL) > 0.0)
 
 

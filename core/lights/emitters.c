@@ -1,7 +1,8 @@
 /* Emissive meshes as one light: core/lights/emitters.py. A triangle chosen by the light tree
  * (core/lights/light_tree.py), then a direction
- * towards it: uniform over the spherical triangle near it (Arvo), uniform in its area far from it; a moving
- * emitter's where it is at the path's time (emitter_at). */
+ * towards it: uniform over the spherical triangle near it (Arvo), uniform in its area far from it; a quad lamp (two
+ * triangles as one emitter, MeshEmitters.partner) over its spherical rectangle (Urena et al. 2013) or its area; a
+ * moving emitter's where it is at the path's time (emitter_at). */
 
 #define EMIT_FRONT 1
 #define EMIT_BACK 2
@@ -300,6 +301,115 @@ INLINE void triangle_area_sample(const double *P, const double *V, const double 
     *pdf = isfinite(p) ? p : 0.0;
 }
 
+/* emitters.rectangle_area: the area of rectangle R (9,) [corner, edge u, edge v]. */
+INLINE double rectangle_area(const double *R)
+{
+    double c[3];
+    cross_product(R + 3, R + 6, c);
+    return sqrt(dot3(c, c));
+}
+
+/* emitters.rectangle_frame for one point: rectangle R seen from P in Urena et al.'s local frame, x, y, z (3,) and
+ * ext = {x0, x1, y0, y1, z0}, nz (4,) the z components of the unit normals of the planes through P and its edges,
+ * g (4,) the asin terms (interior angles pi/2 - g, solid angle -sum(g)). */
+INLINE void rectangle_frame(const double *P, const double *R, double *x, double *y, double *z, double *ext,
+                            double *nz, double *g)
+{
+    double lx = sqrt(dot3(R + 3, R + 3)), ly = sqrt(dot3(R + 6, R + 6)), d[3];
+    for (int c = 0; c < 3; c++) { x[c] = R[3 + c] / lx; y[c] = R[6 + c] / ly; d[c] = R[c] - P[c]; }
+    cross_product(x, y, z);
+    double z0 = dot3(d, z);
+    if (z0 > 0.0) {
+        for (int c = 0; c < 3; c++) z[c] = -z[c];
+        z0 = -z0;
+    }
+    double x0 = dot3(d, x), y0 = dot3(d, y);
+    double x1 = x0 + lx, y1 = y0 + ly;
+    ext[0] = x0; ext[1] = x1; ext[2] = y0; ext[3] = y1; ext[4] = z0;
+    double raw[4] = {-y0, x1, y1, -x0};
+    for (int k = 0; k < 4; k++) nz[k] = raw[k] / sqrt(raw[k] * raw[k] + z0 * z0);
+    for (int k = 0; k < 4; k++) {
+        double s = -nz[k] * nz[(k + 1) & 3];
+        s = s < -1.0 ? -1.0 : (s > 1.0 ? 1.0 : s);
+        g[k] = asin(s);
+    }
+}
+
+/* emitters.rectangle_solid_angle for one point. */
+INLINE double rectangle_solid_angle(const double *P, const double *R)
+{
+    double x[3], y[3], z[3], ext[5], nz[4], g[4];
+    rectangle_frame(P, R, x, y, z, ext, nz, g);
+    double S = -(g[0] + g[1] + g[2] + g[3]);
+    return S == S ? S : 0.0;
+}
+
+/* emitters.spherical_rectangle_sample for one point: the direction L uniform over the spherical rectangle R subtends
+ * from P by u (2,), the distance to its point, pdf 1 / Omega (Urena, Fajardo and King 2013). */
+INLINE void spherical_rectangle_sample(const double *P, const double *R, const double *u, double *L, double *t,
+                                       double *pdf)
+{
+    double x[3], y[3], z[3], ext[5], nz[4], g[4];
+    rectangle_frame(P, R, x, y, z, ext, nz, g);
+    double x0 = ext[0], x1 = ext[1], y0 = ext[2], y1 = ext[3], z0 = ext[4];
+    double S = -(g[0] + g[1] + g[2] + g[3]);
+    S = S == S ? S : 0.0;
+    double b0 = nz[0], b1 = nz[2];
+    /* 1. x: the solid angle left of it u0 S (the paper's k = pi + g2 + g3, its pi taken out by flipping signs). */
+    double au = u[0] * S + g[2] + g[3];
+    double sin_au = sin(au), cos_au = cos(au);
+    double fu = sin_au != 0.0 ? (cos_au * b0 + b1) / sin_au : 0.0;
+    double cu = copysign(1.0 / sqrt(fu * fu + b0 * b0), fu);
+    cu = cu < -1.0 ? -1.0 : (cu > 1.0 ? 1.0 : cu);
+    double xu = -(cu * z0) / at_least(sqrt(at_least(1.0 - cu * cu, 0.0)), 1e-300);
+    xu = xu == xu ? xu : 0.0;
+    xu = xu < x0 ? x0 : (xu > x1 ? x1 : xu);
+    /* 2. y: uniform in the height of the direction's projection between its values at the two ends. */
+    double d2 = xu * xu + z0 * z0;
+    double h0 = y0 / sqrt(d2 + y0 * y0), h1 = y1 / sqrt(d2 + y1 * y1);
+    double hv = h0 + u[1] * (h1 - h0);
+    double yv = hv * hv < 1.0 - 1e-12 ? hv * sqrt(d2 / (1.0 - hv * hv)) : y1;
+    double w[3];
+    for (int c = 0; c < 3; c++) w[c] = xu * x[c] + yv * y[c] + z0 * z[c];
+    double length = sqrt(dot3(w, w));
+    double p = S > 0.0 ? 1.0 / S : 0.0;
+    int ok = isfinite(length) && length > 0.0 && isfinite(p);
+    for (int c = 0; c < 3; c++) L[c] = ok ? w[c] / length : 0.0;
+    *t = ok ? length : 0.0;
+    *pdf = ok ? p : 0.0;
+}
+
+/* emitters.rectangle_area_sample for one point: corner + u0 edge u + u1 edge v, pdf t^2 / (|cos| A). */
+INLINE void rectangle_area_sample(const double *P, const double *R, const double *normal, const double *u,
+                                  double *L, double *t, double *pdf)
+{
+    double w[3];
+    for (int c = 0; c < 3; c++) w[c] = R[c] + u[0] * R[3 + c] + u[1] * R[6 + c] - P[c];
+    double d = sqrt(dot3(w, w));
+    for (int c = 0; c < 3; c++) L[c] = d > 0.0 ? w[c] / d : 0.0;
+    double cos_light = fabs(dot3(normal, L));
+    double p = d * d / (cos_light * rectangle_area(R));
+    *t = d;
+    *pdf = isfinite(p) ? p : 0.0;
+}
+
+/* emitters.rectangle_side_and_way's second half: whether the quad R uses the spherical rectangle from a point at
+ * `height` from its plane: its diagonal^2 > delta^2, delta = h / (2 A). */
+INLINE int rectangle_spherical(const double *R, double height)
+{
+    double diagonal[3] = {R[3] + R[6], R[4] + R[7], R[5] + R[8]};
+    double delta = height / (2.0 * rectangle_area(R));
+    return dot3(diagonal, diagonal) > delta * delta;
+}
+
+/* MeshEmitters.lead: emitter i, or its quad's lead (the lower index of the two) where it is half of one. */
+INLINE int64_t emitter_lead(const EmitterTables *e, int64_t i)
+{
+    if (e->partner == NULL) return i;
+    int64_t other = e->partner[i];
+    return other >= 0 && other < i ? other : i;
+}
+
 /* Whether the triangle uses solid-angle sampling from P: its longest edge^2 > delta^2, delta = h / (2 A). */
 INLINE int emitter_spherical(const double *V, double height, double area)
 {
@@ -359,13 +469,21 @@ NOINLINE static void sample_emitters(const EmitterTables *e, const double *P, co
     int64_t i = emitter_pick(e, P, N != NULL ? N : UNKNOWN_NORMAL, &u[0], &pick);
     double placed[9], normal[3], area;
     const double *V = emitter_at(e, i, time, placed, normal, &area);
-    double to_V[3] = {V[0] - P[0], V[1] - P[1], V[2] - P[2]};
+    int quad = e->partner != NULL && e->partner[i] >= 0;     /* (a quad lamp's lead: its rectangle) */
+    const double *R = quad ? e->rect + 9 * i : V;
+    double to_V[3] = {R[0] - P[0], R[1] - P[1], R[2] - P[2]};
     double height = dot3(normal, to_V);
     int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;
     int allowed = (e->sides[i] & side) != 0;
     double pdf_direction;
-    if (emitter_spherical(V, height, area)) spherical_triangle_sample(P, V, u, out->L, &out->distance, &pdf_direction);
-    else triangle_area_sample(P, V, normal, area, u, out->L, &out->distance, &pdf_direction);
+    if (quad) {
+        if (rectangle_spherical(R, height)) spherical_rectangle_sample(P, R, u, out->L, &out->distance, &pdf_direction);
+        else rectangle_area_sample(P, R, normal, u, out->L, &out->distance, &pdf_direction);
+    } else if (emitter_spherical(V, height, area)) {
+        spherical_triangle_sample(P, V, u, out->L, &out->distance, &pdf_direction);
+    } else {
+        triangle_area_sample(P, V, normal, area, u, out->L, &out->distance, &pdf_direction);
+    }
     double pdf = pick * pdf_direction;
     int ok = allowed & (pdf > 0.0) & isfinite(pdf);
     out->strength = ok ? 1.0 / pdf : 0.0;
@@ -400,15 +518,24 @@ INLINE int emitters_hit(const LightRecord *light, const double *O, const double 
 INLINE double emitter_pdf(const EmitterTables *e, int64_t i, const double *O, const double *N, const double *D,
                           double t, double time)
 {
+    i = emitter_lead(e, i);                 /* (either triangle of a quad lamp: the quad's pdf) */
     double placed[9], normal[3], area;
     const double *V = emitter_at(e, i, time, placed, normal, &area);
-    double to_V[3] = {V[0] - O[0], V[1] - O[1], V[2] - O[2]};
+    int quad = e->partner != NULL && e->partner[i] >= 0;
+    const double *R = quad ? e->rect + 9 * i : V;
+    double to_V[3] = {R[0] - O[0], R[1] - O[1], R[2] - O[2]};
     double height = dot3(normal, to_V);
     int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;
     if ((e->sides[i] & side) == 0) return 0.0;
     double pdf_direction;
-    if (emitter_spherical(V, height, area)) pdf_direction = 1.0 / triangle_solid_angle(O, V);
-    else pdf_direction = t * t / (fabs(dot3(normal, D)) * area);
+    if (quad) {
+        if (rectangle_spherical(R, height)) pdf_direction = 1.0 / rectangle_solid_angle(O, R);
+        else pdf_direction = t * t / (fabs(dot3(normal, D)) * rectangle_area(R));
+    } else if (emitter_spherical(V, height, area)) {
+        pdf_direction = 1.0 / triangle_solid_angle(O, V);
+    } else {
+        pdf_direction = t * t / (fabs(dot3(normal, D)) * area);
+    }
     double pdf = emitter_pick_probability(e, i, O, N != NULL ? N : UNKNOWN_NORMAL) * pdf_direction;
     return isfinite(pdf) ? pdf : 0.0;
 }
@@ -440,4 +567,13 @@ static void emitter_pick_probability_rows(const EmitterPickArgs *a)
 {
     for (int64_t k = 0; k < a->n; k++)
         a->probability[k] = emitter_pick_probability(a->emitters, a->index[k], a->points + 3 * k, a->normals + 3 * k);
+}
+
+/* MeshEmitters.pdf_of_hits over arrays (for the tests): origins, normals, directions (n, 3), t (n,), index (n,)
+ * int64 -> pdf (n,) float64, at the frame. */
+static void emitter_pdf_rows(const EmitterPdfArgs *a)
+{
+    for (int64_t k = 0; k < a->n; k++)
+        a->pdf[k] = emitter_pdf(a->emitters, a->index[k], a->origins + 3 * k, a->normals + 3 * k, a->directions + 3 * k,
+                                a->t[k], -1.0);
 }

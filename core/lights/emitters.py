@@ -13,9 +13,16 @@ Cycles. Then a direction towards it, by one of two strategies, as Cycles chooses
   pdf = 1 / Omega, the triangle's solid angle;
 - far from it, a point uniform in its area: pdf = t^2 / (|cos theta_light| A).
 
+A quad lamp (two triangles of one object and material, constant emission, that make a rectangle: `quad_partners`) is
+one emitter, one leaf of the tree, sampled near it uniformly over the spherical rectangle it subtends (Urena, Fajardo
+and King, "An area-preserving parametrization for spherical rectangles", 2013: pdf = 1 / Omega of the rectangle), far
+from it uniformly in its area; no number goes to a pick between its two halves, and one 2D point covers it all
+(docs/performance.md, "A quad lamp sampled as one spherical rectangle"). Cycles samples a mesh lamp's two triangles.
+
 The pdf of a direction is the pick probability times that. A BSDF-sampled ray that hits an emissive
 triangle asks `pdf_of_hits` for the pdf the light would have given its direction, for MIS: the tree
-gives the same pick probability for that triangle from the ray's origin, walking its path.
+gives the same pick probability for that triangle from the ray's origin, walking its path (either triangle of a quad:
+the quad's pdf).
 An emitter that moves over the shutter (object or deformation motion blur) is sampled where it is at the
 shading point's time (its corners placed as the geometry places them for the rays, Cycles' triangle_light_sample
 with motion_triangle_vertices at the path's time), and a BSDF ray that hits it gets the pdf of its corners at the
@@ -28,6 +35,7 @@ inside it; the integrator evaluates the graph where each sample lands (integrato
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import ClassVar, Optional
 
@@ -40,6 +48,10 @@ from .base import Light, LightFlags, LightSample
 from .light_tree import LightTree
 
 FRONT, BACK = 1, 2
+# Whether a quad lamp (two triangles that make an exact rectangle, `quad_partners`) is sampled as one spherical
+# rectangle (True, the renders') or as its two triangles (False; PRIMER_QUADS=0 in the environment, for comparing:
+# docs/performance.md, "A quad lamp sampled as one spherical rectangle").
+QUADS = os.environ.get("PRIMER_QUADS", "1") != "0"
 
 
 @dataclass
@@ -63,6 +75,13 @@ class MeshEmitters(Light):
               shutter, -1 for still ones; None where none moves. `corners`, `normal`, `area` are then the frame's,
               and `corners_at` places a moving one at a time in the shutter.
     meshes:   WorldGeometry.instanced, which `mesh` indexes (None where none moves)
+    partner:  (t,) int64 the other triangle of the quad lamp each triangle is half of (`quad_partners`: two triangles
+              of one object and material, constant emission, sharing a diagonal, together an exact rectangle), -1 for
+              a triangle alone; None where there is no quad. A quad is one emitter: the tree's leaf holds its lead
+              (the lower index of the two, whose row `sample` returns), sampled as one spherical rectangle
+              (Urena et al. 2013); both triangles share its path, so a BSDF ray that hits either gets its pdf.
+    rect:     (t, 3, 3) float64 each quad triangle's rectangle [corner, edge u, edge v] (edge u x edge v along the
+              front normal; the lead's row is the one read), None where there is no quad
     """
 
     corners: np.ndarray
@@ -78,6 +97,8 @@ class MeshEmitters(Light):
     textured: Optional[np.ndarray] = None
     mesh: Optional[np.ndarray] = None
     meshes: Optional[list] = None
+    partner: Optional[np.ndarray] = None
+    rect: Optional[np.ndarray] = None
 
     flags: ClassVar[LightFlags] = LightFlags.EMITTER
     blender_type: ClassVar[str] = "MESH"
@@ -106,10 +127,11 @@ class MeshEmitters(Light):
     @classmethod
     def of(cls, corners: np.ndarray, emission: np.ndarray, sides: np.ndarray, prim: np.ndarray,
            textured: Optional[np.ndarray] = None, mesh: Optional[np.ndarray] = None,
-           meshes: Optional[list] = None) -> Optional["MeshEmitters"]:
+           meshes: Optional[list] = None, quad_key: Optional[np.ndarray] = None) -> Optional["MeshEmitters"]:
         """The emitters of triangles with corners (t, 3, 3), radiance (t, 3), sides (t,), textured (t,) bool or
         None; mesh (t,) int32 the instanced mesh of the moving ones (-1: still) of `meshes` (or both None: none
-        moves); None if none emits."""
+        moves); quad_key (t,) int64: two triangles may be one quad lamp only where their keys are equal and >= 0
+        (the same object and material; `quad_partners`), None: no quads; None if none emits."""
         cross, length = face_cross(corners)
         area = 0.5 * length
         power = area * np.abs(emission).mean(axis=1) * (sides > 0)
@@ -121,10 +143,21 @@ class MeshEmitters(Light):
         sides = sides.astype(np.int32)
         mesh = mesh[keep].astype(np.int32) if mesh is not None and (mesh[keep] >= 0).any() else None
         leaves = None if mesh is None else shutter_bounds(corners, normal, sides, prim, mesh, meshes)
-        tree = LightTree.build(corners, normal, power[keep], sides, leaves)
         textured = textured[keep] if textured is not None and textured[keep].any() else None
+        partner = rect = None
+        if quad_key is not None:
+            key = np.asarray(quad_key, np.int64)[keep].copy()
+            if mesh is not None:
+                key[mesh >= 0] = -1                  # (a moving emitter stays triangles)
+            if textured is not None:
+                key[textured] = -1                   # (a textured one too: its emission varies)
+            partner, rect = quad_partners(corners, normal, emission, sides, key)
+        if partner is None:
+            tree = LightTree.build(corners, normal, power[keep], sides, leaves)
+        else:
+            tree = quad_tree(corners, normal, power[keep], sides, leaves, partner)
         return cls(corners, normal, area[keep], emission, sides, prim, power[keep], tree, textured=textured,
-                   mesh=mesh, meshes=None if mesh is None else meshes)
+                   mesh=mesh, meshes=None if mesh is None else meshes, partner=partner, rect=rect)
 
     def corners_at(self, index: np.ndarray, times: Optional[np.ndarray] = None) -> tuple:
         """Emitters `index` (n,) int64 where they are at `times` (n,) float64 in the shutter (None: the frame):
@@ -163,14 +196,26 @@ class MeshEmitters(Light):
         u = np.stack([reused, u[:, 1]], axis=1)
         V, normal, area = self.corners_at(index, times)
         allowed, spherical = side_and_way(V, normal, area, self.sides[index], points)
+        quad = self.quads(index)
+        if quad.any():
+            allowed[quad], spherical[quad] = rectangle_side_and_way(self.rect[index[quad]], normal[quad],
+                                                                    self.sides[index[quad]], points[quad])
         L, distance, pdf_direction = np.zeros((n, 3)), np.zeros(n), np.zeros(n)
-        if spherical.any():
-            rows = np.flatnonzero(spherical)
-            L[rows], distance[rows], pdf_direction[rows] = spherical_triangle_sample(points[rows], V[rows], u[rows, :2])
-        if (~spherical).any():
-            rows = np.flatnonzero(~spherical)
-            L[rows], distance[rows], pdf_direction[rows] = area_sample(points[rows], V[rows], normal[rows],
-                                                                       area[rows], u[rows, :2])
+        for rows, sampler in ((spherical & ~quad, "spherical"), (~spherical & ~quad, "area"),
+                              (spherical & quad, "rectangle"), (~spherical & quad, "rectangle_area")):
+            rows = np.flatnonzero(rows)
+            if not len(rows):
+                continue
+            P, numbers = points[rows], u[rows, :2]
+            if sampler == "spherical":
+                found = spherical_triangle_sample(P, V[rows], numbers)
+            elif sampler == "area":
+                found = area_sample(P, V[rows], normal[rows], area[rows], numbers)
+            elif sampler == "rectangle":
+                found = spherical_rectangle_sample(P, self.rect[index[rows]], numbers)
+            else:
+                found = rectangle_area_sample(P, self.rect[index[rows]], normal[rows], numbers)
+            L[rows], distance[rows], pdf_direction[rows] = found
         pdf = pick * pdf_direction
         ok = allowed & (pdf > 0.0) & np.isfinite(pdf)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -184,16 +229,46 @@ class MeshEmitters(Light):
                     N: Optional[np.ndarray] = None, times: Optional[np.ndarray] = None) -> np.ndarray:
         """The pdf with which `sample` would choose the direction D from `origins` (normals N, as `sample`'s)
         to emitter `index` at distance t (a BSDF-sampled ray that hit it) at the rays' `times` (n,) (a moving
-        emitter where it is then; None: the frame): (n,) float64, 0 where the side is not sampled."""
+        emitter where it is then; None: the frame): (n,) float64, 0 where the side is not sampled. A hit on either
+        triangle of a quad gets the quad's pdf (its lead's: the same pick, the rectangle's direction pdf)."""
+        index = self.lead(index)
         V, normal, area = self.corners_at(index, times)
         allowed, spherical = side_and_way(V, normal, area, self.sides[index], origins)
+        quad = self.quads(index)
         with np.errstate(divide="ignore", invalid="ignore"):
             omega = solid_angle(origins, V)
+            if quad.any():
+                R = self.rect[index[quad]]
+                allowed[quad], spherical[quad] = rectangle_side_and_way(R, normal[quad], self.sides[index[quad]],
+                                                                        origins[quad])
+                omega[quad] = rectangle_solid_angle(origins[quad], R)
+                area[quad] = rectangle_area(R)
             by_angle = 1.0 / omega
             cos_light = np.abs(np.einsum("ij,ij->i", normal, D))
             by_area = t * t / (cos_light * area)
         pdf = self.pick_probability(origins, index, N) * np.where(spherical, by_angle, by_area)
         return np.where(allowed & np.isfinite(pdf), pdf, 0.0)
+
+    def quads(self, index: np.ndarray) -> np.ndarray:
+        """(n,) bool: which of emitters `index` (n,) int64 are half of a quad lamp (sampled as its rectangle)."""
+        return np.zeros(len(index), bool) if self.partner is None else self.partner[index] >= 0
+
+    def lead(self, index: np.ndarray) -> np.ndarray:
+        """Emitters `index` (n,) int64 with each quad triangle replaced by its quad's lead (the lower index of the
+        two, the tree's leaf): (n,) int64."""
+        if self.partner is None:
+            return index
+        other = self.partner[index]
+        return np.where(other >= 0, np.minimum(index, other), index)
+
+    def same_emitter(self, index: np.ndarray, prim: np.ndarray) -> np.ndarray:
+        """(n,) bool: whether emitter `index` (n,) int64 (a quad: either of its triangles) is WorldGeometry
+        triangle `prim` (n,) int64."""
+        own = self.prim[index] == prim
+        if self.partner is None:
+            return own
+        other = self.partner[index]
+        return own | ((other >= 0) & (self.prim[np.maximum(other, 0)] == prim))
 
     def index_of_prim(self, prim: np.ndarray) -> np.ndarray:
         """The emitter index of WorldGeometry triangles `prim` (-1 for triangles that are not emitters)."""
@@ -339,6 +414,195 @@ def spherical_triangle_sample(P: np.ndarray, V: np.ndarray, u: np.ndarray):
     return L, np.where(np.isfinite(distance) & (distance > 0), distance, 0.0), np.where(np.isfinite(pdf), pdf, 0.0)
 
 
+# Two triangles are one quad lamp only where they make a rectangle to within this: the cosine of the right angles, and
+# the gap between the fourth corners as a share of the edges. (A rectangle lamp's float32 vertices, camera-relative,
+# round at about 1e-7 of its size: the Cornell box's lamp is right-angled to 1.2e-7. The sampled rectangle, the lead's
+# corner and edges made orthogonal, then differs from the two triangles by slivers of at most this share of its area.)
+QUAD_TOLERANCE = 1e-6
+
+
+def quad_partners(corners: np.ndarray, normal: np.ndarray, emission: np.ndarray, sides: np.ndarray,
+                  key: np.ndarray) -> tuple:
+    """Which triangles pair into quad lamps, sampled as one spherical rectangle: two of equal `key` (>= 0: the same
+    object and material) with the same emission and sides, sharing an edge (bit for bit the same two corners) that is
+    both's hypotenuse, each right-angled opposite it and the two facing the same way, the corner of each opposite the
+    edge the other's mirror through the edge's middle (a rectangle to within QUAD_TOLERANCE, whence coplanar to within
+    it too); each triangle in at most one pair (an edge shared by more than two such triangles pairs none).
+
+    corners (t, 3, 3), normal (t, 3), emission (t, 3) float64, sides (t,) int32, key (t,) int64 ->
+    (partner (t,) int64, -1 alone; rect (t, 3, 3) float64 [corner, edge u, edge v] of the lead's (the lower index's)
+    right angle, edge v made orthogonal to edge u, the same rows for both, edge u x edge v along the normal), or
+    (None, None) where none pairs."""
+    t = len(corners)
+    candidates = np.flatnonzero(key >= 0)
+    if len(candidates) < 2:
+        return None, None
+    V = corners[candidates]
+    # The right-angled corner k of each (if any): |cos| of the angle there below the tolerance.
+    right = np.full(len(candidates), -1)
+    for k in range(3):
+        a, b = V[:, (k + 1) % 3] - V[:, k], V[:, (k + 2) % 3] - V[:, k]
+        cos = np.einsum("ij,ij->i", a, b) / np.sqrt(np.einsum("ij,ij->i", a, a) * np.einsum("ij,ij->i", b, b))
+        right = np.where((np.abs(cos) <= QUAD_TOLERANCE) & (right < 0), k, right)
+    # Group the right-angled ones by (key, hypotenuse): its two corners in a canonical order (lexicographic).
+    rows = np.flatnonzero(right >= 0)
+    k = right[rows]
+    B, C = V[rows, (k + 1) % 3], V[rows, (k + 2) % 3]
+    swap = (B[:, 0] > C[:, 0]) | ((B[:, 0] == C[:, 0]) & ((B[:, 1] > C[:, 1]) | ((B[:, 1] == C[:, 1]) & (B[:, 2] > C[:, 2]))))
+    first, second = np.where(swap[:, None], C, B), np.where(swap[:, None], B, C)
+    edge = np.concatenate([key[candidates[rows]].astype(np.float64)[:, None], first, second], axis=1)
+    partner = np.full(t, -1, np.int64)
+    rect = np.zeros((t, 3, 3))
+    if not len(rows):
+        return None, None
+    _, group, count = np.unique(edge, axis=0, return_inverse=True, return_counts=True)
+    group = group.ravel()
+    pairs = np.flatnonzero(count[group] == 2)                   # (an edge of exactly two such triangles)
+    pairs = pairs[np.argsort(group[pairs], kind="stable")].reshape(-1, 2)
+    if not len(pairs):
+        return None, None
+    i, j = candidates[rows[pairs[:, 0]]], candidates[rows[pairs[:, 1]]]
+    ki, kj = k[pairs[:, 0]], k[pairs[:, 1]]
+    lead = np.minimum(i, j)
+    j, ki, kj = np.maximum(i, j), np.where(i < j, ki, kj), np.where(i < j, kj, ki)
+    i = lead
+    a, b, c = corners[i, ki], corners[i, (ki + 1) % 3], corners[i, (ki + 2) % 3]
+    d = corners[j, kj]
+    u, v = b - a, c - a
+    size = np.sqrt(np.einsum("ij,ij->i", u, u)) + np.sqrt(np.einsum("ij,ij->i", v, v))
+    exact = ((np.abs(a + d - b - c).max(axis=1) <= QUAD_TOLERANCE * size)
+             & (np.einsum("ij,ij->i", normal[i], normal[j]) > 0.0)
+             & np.all(emission[i] == emission[j], axis=1) & (sides[i] == sides[j]))
+    i, j, a, u, v = i[exact], j[exact], a[exact], u[exact], v[exact]
+    partner[i], partner[j] = j, i
+    v = v - (np.einsum("ij,ij->i", v, u) / np.einsum("ij,ij->i", u, u))[:, None] * u      # (exactly right-angled)
+    rect[i] = rect[j] = np.stack([a, u, v], axis=1)
+    if not (partner >= 0).any():
+        return None, None
+    return partner, rect
+
+
+def quad_tree(corners: np.ndarray, normal: np.ndarray, power: np.ndarray, sides: np.ndarray, leaves,
+              partner: np.ndarray) -> LightTree:
+    """The light tree over the emitters with each quad one leaf (`quad_partners`): its box, cone and power the union
+    of its two triangles', the leaf holding its lead (the lower index), both triangles given the lead's path and
+    depth (so that pick_probability of either is the quad's). corners (t, 3, 3), normal (t, 3), power (t,), sides
+    (t,), leaves: LightTree.build's bounds per triangle or None, partner (t,) int64 (-1: alone)."""
+    t = len(power)
+    if leaves is None:
+        leaves = (corners.min(axis=1), corners.max(axis=1), np.where((sides == BACK)[:, None], -normal, normal),
+                  np.where(sides == (FRONT | BACK), np.pi, 0.0), corners.mean(axis=1))
+    lo, hi, axis, theta, centroid = (np.array(a) for a in leaves)
+    other = np.maximum(partner, 0)
+    quad = partner >= 0
+    lo[quad] = np.minimum(lo[quad], lo[other[quad]])
+    hi[quad] = np.maximum(hi[quad], hi[other[quad]])
+    centroid[quad] = 0.5 * (centroid[quad] + centroid[other[quad]])
+    power = np.where(quad, power + power[other], power)
+    units = np.flatnonzero(~quad | (np.arange(t) < partner))        # alone, or a quad's lead
+    tree = LightTree.build(corners[units], normal[units], power[units], sides[units],
+                           (lo[units], hi[units], axis[units], theta[units], centroid[units]))
+    nodes = tree.nodes.copy()
+    leaf = nodes[:, 12] < 0.0                                            # (light_tree.LEFT < 0: a leaf's -1 - unit)
+    nodes[leaf, 12] = -1.0 - units[(-1.0 - nodes[leaf, 12]).astype(np.int64)]
+    unit_of = np.full(t, -1, np.int64)
+    unit_of[units] = np.arange(len(units))
+    unit_of[quad] = unit_of[np.minimum(np.arange(t), partner)[quad]]
+    return LightTree(nodes, tree.path[unit_of], tree.depth[unit_of], tree.rule)
+
+
+def rectangle_area(R: np.ndarray) -> np.ndarray:
+    """The areas (n,) of rectangles R (n, 3, 3) [corner, edge u, edge v]."""
+    c = vectors.cross(R[:, 1], R[:, 2])
+    return np.sqrt(np.einsum("ij,ij->i", c, c))
+
+
+def rectangle_side_and_way(R: np.ndarray, normal: np.ndarray, sides: np.ndarray, points: np.ndarray) -> tuple:
+    """side_and_way for quads: rectangles R (n, 3, 3) (unit normals (n, 3), sides (n,)) seen from points (n, 3):
+    (whether the side seen is sampled, whether the spherical rectangle serves it rather than area sampling), (n,)
+    bool each; spherical where its diagonal squared exceeds delta^2, delta = h / (2 A) (the triangles' rule, with the
+    quad's longest chord and area)."""
+    height = np.einsum("ij,ij->i", normal, R[:, 0] - points)
+    allowed = (sides & np.where(height > 0.0, BACK, FRONT)) != 0
+    diagonal = R[:, 1] + R[:, 2]
+    delta = height / (2.0 * rectangle_area(R))
+    return allowed, np.einsum("ij,ij->i", diagonal, diagonal) > delta * delta
+
+
+def rectangle_frame(P: np.ndarray, R: np.ndarray) -> tuple:
+    """Rectangles R (n, 3, 3) seen from P (n, 3) in Urena et al.'s local frame (x along edge u, y along edge v, z
+    their normal turned away from P): (x, y, z (n, 3), x0, x1, y0, y1, z0 (n,) the rectangle's extent, z0 <= 0,
+    nz (4, n) the z components of the unit normals of the four planes through P and its edges, g (4, n) the asin
+    terms: the interior angles are pi/2 - g, the solid angle -sum(g) (no cancellation against 2 pi))."""
+    lx = np.sqrt(np.einsum("ij,ij->i", R[:, 1], R[:, 1]))
+    ly = np.sqrt(np.einsum("ij,ij->i", R[:, 2], R[:, 2]))
+    x, y = R[:, 1] / lx[:, None], R[:, 2] / ly[:, None]
+    z = vectors.cross(x, y)
+    d = R[:, 0] - P
+    z0 = np.einsum("ij,ij->i", d, z)
+    away = z0 > 0.0
+    z = np.where(away[:, None], -z, z)
+    z0 = np.where(away, -z0, z0)
+    x0, y0 = np.einsum("ij,ij->i", d, x), np.einsum("ij,ij->i", d, y)
+    x1, y1 = x0 + lx, y0 + ly
+    nz = np.stack([-y0, x1, y1, -x0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nz = nz / np.sqrt(nz * nz + z0 * z0)
+    g = np.arcsin(np.clip(-nz * np.roll(nz, -1, axis=0), -1.0, 1.0))
+    return x, y, z, x0, x1, y0, y1, z0, nz, g
+
+
+def rectangle_solid_angle(P: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The solid angle (n,) of rectangles R (n, 3, 3) seen from points P (n, 3) (Urena et al. 2013; 0 seen
+    edge-on)."""
+    g = rectangle_frame(P, R)[-1]
+    return np.nan_to_num(-(g[0] + g[1] + g[2] + g[3]))
+
+
+def spherical_rectangle_sample(P: np.ndarray, R: np.ndarray, u: np.ndarray):
+    """A direction uniform over the spherical rectangle that rectangles R (n, 3, 3) subtend from P (n, 3) by the
+    unit-square points u (n, 2) (Urena, Fajardo and King, "An area-preserving parametrization for spherical
+    rectangles", 2013; u[:, 0] picks the x of the point by the solid angle left of it, u[:, 1] its y uniformly in
+    the height of the direction's projection): (L (n, 3), t (n,) distance to the point, pdf (n,) = 1 / Omega)."""
+    x, y, z, x0, x1, y0, y1, z0, nz, g = rectangle_frame(P, R)
+    S = np.nan_to_num(-(g[0] + g[1] + g[2] + g[3]))
+    b0, b1 = nz[0], nz[2]
+    # 1. x: the solid angle left of it is u0 S (the paper's au = u0 S + k, k = pi + g2 + g3 with the pi taken out
+    #    by flipping the signs of cos and sin, and of b1 with them).
+    au = u[:, 0] * S + g[2] + g[3]
+    sin_au, cos_au = np.sin(au), np.cos(au)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fu = np.where(sin_au != 0.0, (cos_au * b0 + b1) / sin_au, 0.0)
+        cu = np.clip(np.copysign(1.0 / np.sqrt(fu * fu + b0 * b0), fu), -1.0, 1.0)
+        xu = -(cu * z0) / np.maximum(np.sqrt(np.maximum(1.0 - cu * cu, 0.0)), 1e-300)
+    xu = np.clip(np.nan_to_num(xu), x0, x1)
+    # 2. y: uniform in h = cos of the angle to the y axis between its values at the two ends.
+    d2 = xu * xu + z0 * z0
+    h0, h1 = y0 / np.sqrt(d2 + y0 * y0), y1 / np.sqrt(d2 + y1 * y1)
+    hv = h0 + u[:, 1] * (h1 - h0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        yv = np.where(hv * hv < 1.0 - 1e-12, hv * np.sqrt(d2 / (1.0 - hv * hv)), y1)
+    w = xu[:, None] * x + yv[:, None] * y + z0[:, None] * z
+    t = np.sqrt(np.einsum("ij,ij->i", w, w))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        L = w / t[:, None]
+        pdf = np.where(S > 0.0, 1.0 / S, 0.0)
+    ok = np.isfinite(t) & (t > 0.0) & np.isfinite(pdf)
+    return np.where(ok[:, None], np.nan_to_num(L), 0.0), np.where(ok, t, 0.0), np.where(ok, pdf, 0.0)
+
+
+def rectangle_area_sample(P: np.ndarray, R: np.ndarray, normal: np.ndarray, u: np.ndarray):
+    """A point uniform in rectangles R (n, 3, 3), corner + u0 edge u + u1 edge v, seen from P (n, 3): (L (n, 3),
+    t (n,), pdf (n,) = t^2 / (|cos theta_light| A))."""
+    w = R[:, 0] + u[:, :1] * R[:, 1] + u[:, 1:2] * R[:, 2] - P
+    t = np.sqrt(np.einsum("ij,ij->i", w, w))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        L = w / t[:, None]
+        cos_light = np.abs(np.einsum("ij,ij->i", normal, L))
+        pdf = t * t / (cos_light * rectangle_area(R))
+    return np.nan_to_num(L), t, np.where(np.isfinite(pdf), pdf, 0.0)
+
+
 def from_geometry(geometry, materials, graph_emission, notes: Optional[list] = None) -> Optional[MeshEmitters]:
     """The emitters of a WorldGeometry: the triangles whose material (a row of the MaterialTable) emits.
 
@@ -382,9 +646,12 @@ def from_geometry(geometry, materials, graph_emission, notes: Optional[list] = N
         # only BSDF rays find the triangle, with MIS weight 1); what a sample brings is evaluated where it lands.
         radiance[textured] = mean_graph_emission(geometry, materials, prim[textured], graph_emission)
     moving = (mesh_of >= 0).any()
+    # Quad lamps (quad_partners) only within one object and material: the same emission, sides, visibility, light
+    # group and links.
+    quad_key = (geometry.owners(prim) + 1) * len(materials.shaders) + material if QUADS else None
     emitters = MeshEmitters.of(np.concatenate(corners), radiance, sides[material], prim,
                                textured if textured.any() else None, mesh_of if moving else None,
-                               list(geometry.instanced) if moving else None)
+                               list(geometry.instanced) if moving else None, quad_key)
     if emitters is not None:
         emitters.hidden = hidden_bits_of(geometry, emitters.prim)
     return emitters
@@ -480,6 +747,9 @@ EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as 
                        "-1 still (MeshEmitters.mesh), or NULL: none moves"),
     ("geometry", ptr(), "the scene's GeometryTables (core/geometry/tables.py), where a moving emitter is placed at a\n"
                         "time (with mesh; untyped: the lights sit below the geometry), or NULL"),
+    ("partner", ptr(I64), "(t,) the other triangle of each one's quad lamp (MeshEmitters.partner), -1 alone, or NULL:\n"
+                          "no quads"),
+    ("rect", ptr(F64), "(t, 3, 3) each quad triangle's rectangle [corner, edge u, edge v] (MeshEmitters.rect), or NULL"),
 ])
 
 
@@ -498,7 +768,9 @@ class EmitterTables:
             depth=c(tree.depth, np.int64), rule=tree.rule, sorted_prim=c(emitters.prim[order], np.int64), order=order,
             count=len(emitters.prim), hidden=None if emitters.hidden is None else c(emitters.hidden, np.uint8),
             textured=None if emitters.textured is None else c(emitters.textured, np.uint8),
-            prim=c(emitters.prim, np.int64), mesh=None if emitters.mesh is None else c(emitters.mesh, np.int32))
+            prim=c(emitters.prim, np.int64), mesh=None if emitters.mesh is None else c(emitters.mesh, np.int32),
+            partner=None if emitters.partner is None else c(emitters.partner, np.int64),
+            rect=None if emitters.rect is None else c(emitters.rect, np.float64))
 
 
 EmitterPickArgs = schema.record("EmitterPickArgs", "primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points.", [
@@ -512,6 +784,17 @@ EmitterPickArgs = schema.record("EmitterPickArgs", "primer_emitter_pick's (and _
 ])
 schema.function("primer_emitter_pick", "emitter_pick_rows", EmitterPickArgs)
 schema.function("primer_emitter_pick_probability", "emitter_pick_probability_rows", EmitterPickArgs)
+EmitterPdfArgs = schema.record("EmitterPdfArgs", "primer_emitter_pdf's arguments: MeshEmitters.pdf_of_hits for n rays (the frame).", [
+    ("emitters", ptr("EmitterTables"), ""),
+    ("n", I64, ""),
+    ("origins", ptr(F64), "(n, 3)"),
+    ("normals", ptr(F64), "(n, 3) (zero: unknown)"),
+    ("directions", ptr(F64), "(n, 3) unit"),
+    ("t", ptr(F64), "(n,) the distances to the hits"),
+    ("index", ptr(I64), "(n,) the emitters hit"),
+    ("pdf", out(F64), "(n,)"),
+])
+schema.function("primer_emitter_pdf", "emitter_pdf_rows", EmitterPdfArgs)
 
 
 def compiled_pick(emitters: MeshEmitters, points: np.ndarray, N: np.ndarray, u: np.ndarray):
@@ -534,3 +817,16 @@ def compiled_pick_probability(emitters: MeshEmitters, points: np.ndarray, N: np.
         emitters=emitters.tables().record, n=len(points), points=c(points, np.float64), normals=c(N, np.float64),
         index=np.array(index, np.int64), probability=probability))
     return probability
+
+
+def compiled_pdf_of_hits(emitters: MeshEmitters, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray,
+                         N: Optional[np.ndarray] = None) -> np.ndarray:
+    """MeshEmitters.pdf_of_hits in C (emitters.c emitter_pdf, what direct.c gives a BSDF ray's hit), for the tests:
+    origins, D (n, 3), index (n,) int64, t (n,), N (n, 3) or None -> (n,) float64."""
+    c = library.contiguous
+    pdf = np.empty(len(origins))
+    library.call("primer_emitter_pdf", EmitterPdfArgs(
+        emitters=emitters.tables().record, n=len(origins), origins=c(origins, np.float64),
+        normals=c(unknown_normals(origins, N), np.float64), directions=c(D, np.float64), t=c(t, np.float64),
+        index=c(index, np.int64), pdf=pdf))
+    return pdf

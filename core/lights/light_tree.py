@@ -43,7 +43,8 @@ How p_left follows from them is the tree's rule (LightTree.rule):
 - POWER: energy_left / (energy_left + energy_right), wherever P is (the global power CDF, for comparisons).
 
 Where both upper bounds are 0 the walk goes by power (Cycles gives up: no light sample). Under UPPER and CYCLES,
-two children alike to within TWIN_TOLERANCE (`twins`: the two triangles of a quad lamp) get 1/2 each, their
+two children alike to within TWIN_TOLERANCE (`twins`: the two triangles of a quad lamp that is not one emitter,
+emitters.quad_partners; an exact rectangle's are one leaf) get 1/2 each, their
 importances not computed. CYCLES is implemented and
 tested but not used: with Primer's binary tree of one-triangle leaves its lower bounds are 0 for every large node
 near P, and the mean then pulls the branch probabilities towards 1/2 level after level, whereas the upper bounds'

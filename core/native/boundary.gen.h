@@ -531,6 +531,7 @@ typedef struct SampleLightArgs SampleLightArgs;
 typedef struct LightHitArgs LightHitArgs;
 typedef struct EmitterTables EmitterTables;
 typedef struct EmitterPickArgs EmitterPickArgs;
+typedef struct EmitterPdfArgs EmitterPdfArgs;
 typedef struct LampGraph LampGraph;
 typedef struct WorldMapArgs WorldMapArgs;
 typedef struct WorldTables WorldTables;
@@ -1046,6 +1047,9 @@ lower importance bounds' shares, 1 the upper bounds' share alone (the renders'),
 -1 still (MeshEmitters.mesh), or NULL: none moves */
     const void *geometry;                   /* the scene's GeometryTables (core/geometry/tables.py), where a moving emitter is placed at a
 time (with mesh; untyped: the lights sit below the geometry), or NULL */
+    const int64_t *partner;                 /* (t,) the other triangle of each one's quad lamp (MeshEmitters.partner), -1 alone, or NULL:
+no quads */
+    const double *rect;                     /* (t, 3, 3) each quad triangle's rectangle [corner, edge u, edge v] (MeshEmitters.rect), or NULL */
 };
 
 /* primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points. */
@@ -1057,6 +1061,18 @@ struct EmitterPickArgs {
     const double *u;                        /* (n,) the pick's numbers (primer_emitter_pick) or NULL */
     int64_t *index;                         /* (n,) the emitters picked (primer_emitter_pick), or those whose probability is asked */
     double *probability;                    /* (n,) */
+};
+
+/* primer_emitter_pdf's arguments: MeshEmitters.pdf_of_hits for n rays (the frame). */
+struct EmitterPdfArgs {
+    const EmitterTables *emitters;
+    int64_t n;
+    const double *origins;                  /* (n, 3) */
+    const double *normals;                  /* (n, 3) (zero: unknown) */
+    const double *directions;               /* (n, 3) unit */
+    const double *t;                        /* (n,) the distances to the hits */
+    const int64_t *index;                   /* (n,) the emitters hit */
+    double *pdf;                            /* (n,) */
 };
 
 /* A lamp's Emission compiled into one program (core/lights/lamp_graph.py LampEmission). */
@@ -1365,8 +1381,9 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
-    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1646818140122983101);
+    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(4521009592404648916);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
+    if (strcmp(name, "EmitterPdfArgs") == 0) return UINT64_C(3790277589427127310);
     if (strcmp(name, "LampGraph") == 0) return UINT64_C(3628791564941194139);
     if (strcmp(name, "WorldMapArgs") == 0) return UINT64_C(7748268880605941743);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(6964717275989497168);
@@ -1415,6 +1432,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "LightHitArgs") == 0) return (int64_t)sizeof(LightHitArgs);
     if (strcmp(name, "EmitterTables") == 0) return (int64_t)sizeof(EmitterTables);
     if (strcmp(name, "EmitterPickArgs") == 0) return (int64_t)sizeof(EmitterPickArgs);
+    if (strcmp(name, "EmitterPdfArgs") == 0) return (int64_t)sizeof(EmitterPdfArgs);
     if (strcmp(name, "LampGraph") == 0) return (int64_t)sizeof(LampGraph);
     if (strcmp(name, "WorldMapArgs") == 0) return (int64_t)sizeof(WorldMapArgs);
     if (strcmp(name, "WorldTables") == 0) return (int64_t)sizeof(WorldTables);

@@ -78,6 +78,11 @@ EXPORT void primer_emitter_pick_probability(EmitterPickArgs *a)
     emitter_pick_probability_rows(a);
 }
 
+EXPORT void primer_emitter_pdf(EmitterPdfArgs *a)
+{
+    emitter_pdf_rows(a);
+}
+
 EXPORT void primer_world_map(WorldMapArgs *a)
 {
     world_map_rows(a);
