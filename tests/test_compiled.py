@@ -49,16 +49,6 @@ def test_sample_2d_agrees_bit_for_bit(rng):
         assert np.array_equal(sampling.compiled_sample_2d(seed, pixel, index, dimension), expected)
 
 
-def test_sample_3d_agrees_bit_for_bit(rng):
-    """The BSDF's 3D points (direction and closure choice) in C are Python's, bit for bit."""
-    n = 20000
-    pixel = rng.integers(0, 1 << 40, n)
-    index = rng.integers(0, 1 << 31, n)
-    for seed, dimension in ((0, 2), (7, 16), (2 ** 40 + 3, 2 + 65536)):
-        expected = sampling.sample_3d(seed, pixel, index, dimension)
-        assert np.array_equal(sampling.compiled_sample_3d(seed, pixel, index, dimension), expected)
-
-
 CAMERAS = [
     Camera.look_at((1.0, -6.0, 2.5), (0.0, 0.0, 0.5), fov=math.radians(50)),
     dataclasses.replace(Camera.look_at((3.0, 2.0, 1.0), (0.0, 0.0, 0.0)), shift_x=0.3, shift_y=-0.2,

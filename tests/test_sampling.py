@@ -42,46 +42,6 @@ def test_sobol_y_xors_one_direction_number_per_set_bit():
     assert sampling.sobol_y(np.array(index, np.uint32)).tolist() == expected
 
 
-def test_sobol_z_is_sobols_third_dimension():
-    """Sobol's third dimension (primitive polynomial x^2 + x + 1, m = 1, 3): the first points 0, 1/2, 3/4, 1/4, 3/8,
-    7/8, 5/8, 1/8, and z(i) the XOR of the direction numbers m_k / 2^k (m_k = 2 m_(k-1) ^ 4 m_(k-2) ^ m_(k-2)) over
-    i's set bits."""
-    first = sampling.sobol_z(np.arange(8, dtype=np.uint32)) / 2.0 ** 32
-    np.testing.assert_array_equal(first, [0, 0.5, 0.75, 0.25, 0.375, 0.875, 0.625, 0.125])
-    m = [1, 3]
-    while len(m) < 32:
-        m.append((2 * m[-1]) ^ (4 * m[-2]) ^ m[-2])
-    random = np.random.default_rng(6).integers(0, 2 ** 32, 2000, dtype=np.uint64)
-    index = [1, 2, 3, 7, 255, 256, 1000, 65537, 2 ** 31 + 5, 2 ** 32 - 1] + [int(i) for i in random]
-    expected = []
-    for i in index:
-        word = 0
-        for bit in range(32):
-            if i >> bit & 1:
-                word ^= m[bit] << (31 - bit)
-        expected.append(word)
-    assert sampling.sobol_z(np.array(index, np.uint32)).tolist() == expected
-
-
-@pytest.mark.parametrize("m", [4, 6, 8])
-def test_points_choosing_by_the_third_number_keep_the_strata_of_the_first_two(m):
-    """sample_3d: its first two numbers are sample_2d's, and of 2^m points those whose third number falls in either
-    half of [0, 1) (a closure chosen by it, with probability 1/2) put exactly 2 points in each cell of every
-    2^a x 2^(m-2-a) grid of the first two (a 3D Sobol net, t = 1, Owen-scrambled): the directions of each closure stay
-    stratified. A choice by an independent pattern (the next dimension's first number) leaves cells with 0 or 4."""
-    n = 1 << m
-    for pixel in (0, 17, 123456):
-        points = sampling.sample_3d(3, np.full(n, pixel), np.arange(n), dimension=2)
-        np.testing.assert_array_equal(points[:, :2], sampling.sample_2d(3, np.full(n, pixel), np.arange(n), 2))
-        assert (np.bincount((points[:, 2] * n).astype(np.int64), minlength=n) == 1).all()   # (one per 1/2^m)
-        for half in (points[:, 2] < 0.5, points[:, 2] >= 0.5):
-            for a in range(m - 1):
-                assert (cells_hit(points[half, :2], a, m - 2 - a) == 2).all()
-    independent = sampling.sample_2d(3, np.full(n, 17), np.arange(n), dimension=3)[:, 0] < 0.5
-    points = sampling.sample_2d(3, np.full(n, 17), np.arange(n), dimension=2)
-    assert any((cells_hit(points[independent], a, m - 2 - a) != 2).any() for a in range(m - 1))
-
-
 @pytest.mark.parametrize("seed", [0, 1, 0xDEADBEEF])
 def test_owen_scramble_is_a_bijection_that_keeps_dyadic_intervals_together(seed):
     """Owen scrambling permutes the 2^k aligned intervals of [0, 1) among themselves, at every k."""

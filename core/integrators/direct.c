@@ -1153,6 +1153,7 @@ INLINE void portal_origin(const double *p, const double *I, const double *origin
 NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
 {
     uint32_t stream = stream_of((int64_t)ds->seed, 2 + ds->dimension);
+    uint32_t pick_stream = stream_of((int64_t)ds->seed, 3 + ds->dimension);
     uint64_t embree = 0;
     ShaderRays traced = {ds->intersect, ds->occluded, ds->scene, ds->geometry, ds->seed};
     RayHitPacket packet;
@@ -1164,8 +1165,8 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
     LightPath after[PACKET];
     int ao[PACKET];                              /* 1: Fast GI's short ray (fast_gi_ray) */
     double t_max[PACKET];
-    /* The hits' sample points (sobol.sample_3d, the same numbers) all at once in SIMD lanes: each hit's direction
-     * (u) and the number that picks its closure (pick: the third coordinate of the same 3D point). */
+    /* The hits' sample points (sobol.sample_2d, the same numbers) all at once in SIMD lanes: each hit's direction
+     * (u) and the number that picks its closure (pick: the first coordinate alone, its second unused). */
     uint32_t key_pixel[BLOCK], key_index[BLOCK];
     double u0[BLOCK], u1[BLOCK], pick0[BLOCK];
     for (int64_t h = 0; h < H->m; h++) {
@@ -1173,7 +1174,7 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
         key_index[h] = (uint32_t)H->sample[h];
     }
     sample_lanes(H->m, stream, key_pixel, key_index, u0, u1);
-    sample_lanes_z(H->m, stream, key_pixel, key_index, pick0);
+    sample_lanes_x(H->m, pick_stream, key_pixel, key_index, pick0);
     int lanes = 0;
     for (int64_t h = 0; h <= H->m; h++) {
         if (h < H->m) {

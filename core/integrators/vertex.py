@@ -305,11 +305,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     s = ctx.settings
     m = len(surface.I)
     light_path = graph_.light_paths(m) if light_path is None else light_path
-    # The direction (u) and the number that chooses its closure (pick) from one 3D point, as Cycles' rand_bsdf: the
-    # samples that choose a closure keep the pattern's strata in their directions (an independent pattern's pick
-    # gave each closure a random subset of them).
-    numbers = sampling.sample_3d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
-    u, pick = numbers[:, :2], numbers[:, 2]
+    u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
+    pick = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + 1 + dimension)[:, 0]
     bs = materials_.sample_closures(shader.closures, wo, u, pick, surface.Ng)
     found = np.zeros((m, 3))
     go = np.flatnonzero((bs.pdf > 0.0) & traced)
@@ -764,8 +761,7 @@ def barycentrics(V: np.ndarray, P: np.ndarray) -> tuple:
     return u, v
 
 
-# The sampling dimension of the BSDF-sampled direction (2D) and the closure it picks (its third number: sobol.sample_3d);
-# the next dimension is no longer read (it held the pick until 2026-11-29).
+# The sampling dimensions of the BSDF-sampled direction (2D) and of the closure it picks (core/sampling).
 BSDF_DIMENSION = 2
 # Each vertex's random numbers are its own: vertex k of a path shifts every sampling dimension by k x this.
 VERTEX_DIMENSIONS = schema.constant("VERTEX_DIMENSIONS", 1 << 16, "each path vertex's shift of the sampling dimensions")

@@ -545,7 +545,6 @@ typedef struct SkySingleArgs SkySingleArgs;
 typedef struct TextureTables TextureTables;
 typedef struct TextureLookupArgs TextureLookupArgs;
 typedef struct Sample2dArgs Sample2dArgs;
-typedef struct Sample3dArgs Sample3dArgs;
 typedef struct VolumeField VolumeField;
 typedef struct MediaTables MediaTables;
 typedef struct PhaseRowsArgs PhaseRowsArgs;
@@ -1272,16 +1271,6 @@ struct Sample2dArgs {
     double *out;                            /* (n, 2) */
 };
 
-/* primer_sample_3d's arguments: sample_3d for n samples. */
-struct Sample3dArgs {
-    int64_t seed;
-    const int64_t *pixel;                   /* (n,) */
-    const int64_t *index;                   /* (n,) */
-    int64_t dimension;
-    int64_t n;
-    double *out;                            /* (n, 3) */
-};
-
 /* A heterogeneous medium (core/volumes/field.py Field): its program and closures, for media.c's march. */
 struct VolumeField {
     const GraphTables *graph;               /* its one program and the images it reads */
@@ -1392,7 +1381,6 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "Sample3dArgs") == 0) return UINT64_C(1477624576286590318);
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(4923474972672114994);
     if (strcmp(name, "MediaTables") == 0) return UINT64_C(6367773730817885968);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
@@ -1441,7 +1429,6 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "TextureTables") == 0) return (int64_t)sizeof(TextureTables);
     if (strcmp(name, "TextureLookupArgs") == 0) return (int64_t)sizeof(TextureLookupArgs);
     if (strcmp(name, "Sample2dArgs") == 0) return (int64_t)sizeof(Sample2dArgs);
-    if (strcmp(name, "Sample3dArgs") == 0) return (int64_t)sizeof(Sample3dArgs);
     if (strcmp(name, "VolumeField") == 0) return (int64_t)sizeof(VolumeField);
     if (strcmp(name, "MediaTables") == 0) return (int64_t)sizeof(MediaTables);
     if (strcmp(name, "PhaseRowsArgs") == 0) return (int64_t)sizeof(PhaseRowsArgs);

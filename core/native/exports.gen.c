@@ -118,11 +118,6 @@ EXPORT void primer_sample_2d(Sample2dArgs *a)
     sample_2d_rows(a);
 }
 
-EXPORT void primer_sample_3d(Sample3dArgs *a)
-{
-    sample_3d_rows(a);
-}
-
 EXPORT void primer_phase_rows(PhaseRowsArgs *a)
 {
     phase_rows(a);

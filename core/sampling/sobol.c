@@ -40,20 +40,6 @@ INLINE uint32_t sobol_y_mirrored(uint32_t y)
     return y;
 }
 
-/* Sobol's third dimension of an index (sobol.sobol_z): one direction number per set bit, XORed; the numbers
- * (sobol.SOBOL_Z_DIRECTIONS) by their recurrence v_k = v_(k-1) ^ v_(k-2) ^ (v_(k-2) >> 2) from 1/2 and 3/4. */
-INLINE uint32_t sobol_z(uint32_t index)
-{
-    uint32_t z = 0, v = 0x80000000u, next = 0xC0000000u;
-    for (int k = 0; k < 32; k++) {
-        z ^= v & (0u - ((index >> k) & 1u));
-        uint32_t after = next ^ v ^ (v >> 2);
-        v = next;
-        next = after;
-    }
-    return z;
-}
-
 INLINE uint32_t combine_seed(uint32_t seed, uint32_t value)
 {
     return seed ^ (value + (seed << 6) + (seed >> 2));
@@ -89,27 +75,14 @@ SIMD_CLONES NOINLINE static void sample_lanes(int64_t n, uint32_t stream, const 
     }
 }
 
-/* sample_lanes' third coordinates (sobol.sample_3d's: Sobol's third dimension of the same shuffled index, with its
- * own scrambling) alone, z (n,): the number that chooses a closure for the direction sample_lanes gives. */
-SIMD_CLONES NOINLINE static void sample_lanes_z(int64_t n, uint32_t stream, const uint32_t *restrict pixel,
-                                                const uint32_t *restrict index, double *restrict z)
+/* sample_lanes' first coordinates alone (x (n,)), where the second would go unused: the same numbers. */
+SIMD_CLONES NOINLINE static void sample_lanes_x(int64_t n, uint32_t stream, const uint32_t *restrict pixel,
+                                                const uint32_t *restrict index, double *restrict x)
 {
     for (int64_t k = 0; k < n; k++) {
         uint32_t key = hash_u32(pixel[k] ^ stream);
         uint32_t shuffled = reverse_bits(laine_karras(reverse_bits(index[k]), key));
-        uint32_t scrambled = reverse_bits(laine_karras(reverse_bits(sobol_z(shuffled)), combine_seed(key, 3)));
-        z[k] = scrambled * (1.0 / 4294967296.0);
-    }
-}
-
-/* sobol.sample_3d over arrays: pixel, index (n,) int64 -> out (n, 3) float64 (for the tests). */
-static void sample_3d_rows(const Sample3dArgs *a)
-{
-    uint32_t stream = stream_of(a->seed, a->dimension);
-    for (int64_t i = 0; i < a->n; i++) {
-        uint32_t pixel = (uint32_t)a->pixel[i], index = (uint32_t)a->index[i];
-        sample_2d(stream, a->pixel[i], a->index[i], a->out + 3 * i);
-        sample_lanes_z(1, stream, &pixel, &index, a->out + 3 * i + 2);
+        x[k] = reverse_bits(laine_karras(shuffled, combine_seed(key, 1))) * (1.0 / 4294967296.0);
     }
 }
 

@@ -5,8 +5,7 @@ depends only on the seed: not on the chunk size, the thread count or the
 order in which chunks finish. That makes renders reproducible and lets tests
 compare images exactly.
 
-A BSDF's direction and the closure it chooses come from one 3D point (`sample_3d`: a third Sobol dimension of the
-same shuffled index). Camera and light samples come from one progressive pattern per pixel (`sample_2d`):
+Camera and light samples come from one progressive pattern per pixel (`sample_2d`):
 a scrambled Sobol (0,2)-sequence. Its first 2^m points are stratified in every
 way a set of 2^m points can be (one point in each of the 2^m cells of any grid
 of 2^a x 2^b cells with a + b = m), and every later block of 2^m points is too. So
@@ -135,30 +134,6 @@ def sobol_2d(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return reverse_bits(index), sobol_y(index)
 
 
-# Sobol's third direction numbers (primitive polynomial x^2 + x + 1, m = 1, 3: Joe and Kuo's second line) as 32-bit
-# binary fractions: m_i = 2 m_(i-1) ^ 4 m_(i-2) ^ m_(i-2), number i = m_(i+1) / 2^(i+1).
-def _third_direction_numbers() -> np.ndarray:
-    """Return the 32 direction numbers of Sobol's third dimension, (32,) uint32 (for sobol_z)."""
-    m = [1, 3]
-    while len(m) < 32:
-        m.append((2 * m[-1]) ^ (4 * m[-2]) ^ m[-2])
-    return np.array([(m[i] << (31 - i)) & 0xFFFFFFFF for i in range(32)], dtype=_U32)
-
-
-SOBOL_Z_DIRECTIONS = _third_direction_numbers()
-
-
-def sobol_z(index: np.ndarray) -> np.ndarray:
-    """Return Sobol's third dimension of each index, a 32-bit binary fraction: the XOR of one direction number
-    (SOBOL_Z_DIRECTIONS) per set bit of the index: (n,) uint32 -> (n,) uint32."""
-    index = np.asarray(index, dtype=_U32)
-    z = np.zeros_like(index)
-    for k in range(32):
-        bit = (index >> _U32(k)) & _U32(1)
-        z ^= bit * SOBOL_Z_DIRECTIONS[k]
-    return z
-
-
 def _combine(seed: np.ndarray, value: int) -> np.ndarray:
     """Return a seed derived from `seed` and a small constant (cheap, for seeds that are hashes already)."""
     with np.errstate(over="ignore"):
@@ -204,22 +179,6 @@ def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -
     return out.T
 
 
-def sample_3d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
-    """Return the index-th point of the pixel's pattern of `dimension` with a third coordinate: (n, 3) float64 in
-    [0, 1), its first two columns sample_2d's very numbers, the third Sobol's third dimension (sobol_z) of the same
-    shuffled index, Owen-scrambled with its own key. One 3D Sobol point, as Cycles' 3D samples from its tabulated
-    Sobol points: the points whose third number falls in any interval keep the strata of their first two (a closure
-    chosen by the third number gets a well-spread share of the directions the first two give).
-    pixel, index: (n,) int64 (index >= 0)."""
-    key = _pixel_key(seed, pixel, dimension)
-    shuffled = owen_scramble(np.asarray(index).astype(_U32), key)
-    z = owen_scramble(sobol_z(shuffled), _combine(key, 3))
-    out = np.empty((3, len(z)))
-    out[:2] = sample_2d(seed, pixel, index, dimension).T
-    np.multiply(z, 1.0 / 2.0 ** 32, out=out[2])
-    return out.T
-
-
 Sample2dArgs = schema.function("primer_sample_2d", "sample_2d_rows", schema.record(
     "Sample2dArgs", "primer_sample_2d's arguments: sample_2d for n samples.", [
         ("seed", schema.I64, ""),
@@ -237,26 +196,5 @@ def compiled_sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimensio
     pixel, index = library.contiguous(pixel, np.int64), library.contiguous(index, np.int64)
     out = np.empty((len(pixel), 2))
     library.call("primer_sample_2d", Sample2dArgs(seed=int(seed), pixel=pixel, index=index, dimension=int(dimension),
-                                                  n=len(pixel), out=out))
-    return out
-
-
-Sample3dArgs = schema.function("primer_sample_3d", "sample_3d_rows", schema.record(
-    "Sample3dArgs", "primer_sample_3d's arguments: sample_3d for n samples.", [
-        ("seed", schema.I64, ""),
-        ("pixel", schema.ptr(schema.I64), "(n,)"),
-        ("index", schema.ptr(schema.I64), "(n,)"),
-        ("dimension", schema.I64, ""),
-        ("n", schema.I64, ""),
-        ("out", schema.out(schema.F64), "(n, 3)"),
-    ]))
-
-
-def compiled_sample_3d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
-    """sample_3d in C (core/sampling/sobol.c): pixel, index (n,) int64 -> (n, 3) float64, bit for bit the same."""
-    from ..native import library
-    pixel, index = library.contiguous(pixel, np.int64), library.contiguous(index, np.int64)
-    out = np.empty((len(pixel), 3))
-    library.call("primer_sample_3d", Sample3dArgs(seed=int(seed), pixel=pixel, index=index, dimension=int(dimension),
                                                   n=len(pixel), out=out))
     return out
