@@ -336,7 +336,8 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
         for (int64_t k = 0; k < b->n; k++) {
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;
-            sample_area(light, P, b->u[0][k] - 0.5, b->u[1][k] - 0.5, &ls);
+            double u[2] = {b->u[0][k], b->u[1][k]};
+            sample_area_light(light, P, u, &ls);      /* (its spherical rectangle, or its area) */
             ls.normal[0] = ls.normal[1] = ls.normal[2] = 0.0;   /* (a lamp: no surface to stop off) */
             store_sample(b, k, &ls);
             b->hidden[k] = 0;

@@ -1,4 +1,8 @@
-"""Area lights: a one-sided planar emitter (square, rectangle, disk or ellipse), sampled over its area."""
+"""Area lights: a one-sided planar emitter (square, rectangle, disk or ellipse).
+
+A square or rectangle is sampled uniformly in the solid angle it subtends (a spherical rectangle, Urena et al. 2013,
+core/lights/emitters.py), as Cycles samples it, wherever it is large against its distance (the emitters' rule,
+within NEAR of its diagonals); far from it, and on disks and ellipses, a point uniform in its area."""
 from __future__ import annotations
 
 import math
@@ -8,10 +12,15 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from .. import vectors
+from ..native import schema
+from .emitters import rectangle_solid_angle, spherical_rectangle_sample
 from .base import Cone, Light, LightFlags, LightHit, LightSample, direction_to
 from .ies import IESLamp
 from .lamp_graph import LampEmission
 from .linking import ALL_SETS
+
+NEAR = schema.constant("AREA_NEAR", 100.0, "the heights over an Area lamp (in its diagonals) within which its "
+                       "spherical rectangle samples it")
 
 
 def spread_constants(spread: float) -> tuple[float, float]:
@@ -110,23 +119,57 @@ class AreaLight(Light):
         return vectors.combine(np.asarray(self.center, np.float64), [x, y],
                                [np.asarray(self.axis_u, np.float64), np.asarray(self.axis_v, np.float64)])
 
+    def rectangle(self) -> Optional[np.ndarray]:
+        """The light as a rectangle [corner, edge u, edge v] (3, 3) float64 where it is one (a square or rectangle
+        whose edges meet each other and its direction at right angles to 1e-9), else None (a disk, an ellipse, a
+        sheared parallelogram)."""
+        axis_u, axis_v = np.asarray(self.axis_u, np.float64), np.asarray(self.axis_v, np.float64)
+        normal = np.asarray(self.direction, np.float64)
+        lu, lv = float(np.linalg.norm(axis_u)), float(np.linalg.norm(axis_v))
+        if (self.round or lu * lv <= 0.0 or abs(float(axis_u @ axis_v)) > 1e-9 * lu * lv
+                or abs(float(axis_u @ normal)) > 1e-9 * lu or abs(float(axis_v @ normal)) > 1e-9 * lv):
+            return None
+        return np.stack([np.asarray(self.center, np.float64) - 0.5 * axis_u - 0.5 * axis_v, axis_u, axis_v])
+
+    def spherical(self, points: np.ndarray) -> np.ndarray:
+        """Whether the spherical rectangle serves each point (n, 3) rather than area sampling: (n,) bool; where the
+        point's height h over the plane is below NEAR diagonals (there the solid angle is >= about 1e-4 of the
+        lamp's, and its asin terms lose no digits that matter; a rule of ratios, so a scaled scene samples alike;
+        C: area_spherical)."""
+        R = self.rectangle()
+        if R is None:
+            return np.zeros(len(points), bool)
+        height = (points - R[0]) @ np.asarray(self.direction, np.float64)
+        diagonal = R[1] + R[2]
+        return height * height < NEAR * NEAR * float(diagonal @ diagonal)
+
     def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
-        """A point uniform in area: E_normal = L_e cos(theta_light) A / d^2, pdf = d^2 / (cos(theta_light) A)."""
+        """A direction uniform in the spherical rectangle where `spherical` (pdf = 1 / Omega), else a point uniform
+        in area (pdf = d^2 / (cos(theta_light) A)); E_normal = L_e / pdf on the emitting side."""
         targets = self.points(u)
         area = self.area()
         L, distance = direction_to(points, targets)
+        spherical = self.spherical(points)
+        if spherical.any():
+            rows = np.flatnonzero(spherical)
+            R = np.broadcast_to(self.rectangle(), (len(rows), 3, 3))
+            L[rows], distance[rows], by_angle = spherical_rectangle_sample(points[rows], R, u[rows, :2])
+            targets[rows] = points[rows] + distance[rows, None] * L[rows]
         normal = np.asarray(self.direction, np.float64)
         cos_light = -np.einsum("ij,j->i", L, normal)
         with np.errstate(divide="ignore", invalid="ignore"):
             facing = (cos_light > 0) & (distance > 0)
-            geometry = np.where(facing, cos_light * area / (distance * distance), 0.0)
             pdf = np.where(facing, distance * distance / (cos_light * area), 0.0)
+            if spherical.any():
+                pdf[rows] = np.where(facing[rows], by_angle, 0.0)
+            facing &= pdf > 0.0
+            geometry = np.where(facing, 1.0 / pdf, 0.0)
         geometry *= spread_attenuation(self.spread, cos_light) * self.ies_factor(-L) * self.falloff_factor(distance)
         return LightSample(L, distance, self.radiance() * geometry, pdf, self.emitted(targets, -L, distance), targets)
 
     def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
         """Rays meet the light's plane from its emitting side, inside its shape: radiance L_e (spread
-        applied) and the pdf `sample` gives that direction, d^2 / (cos(theta_light) A)."""
+        applied) and the pdf `sample` gives that direction (1 / Omega or d^2 / (cos(theta_light) A))."""
         normal = np.asarray(self.direction, np.float64)
         center = np.asarray(self.center, np.float64)
         axis_u, axis_v = np.asarray(self.axis_u, np.float64), np.asarray(self.axis_v, np.float64)
@@ -144,6 +187,11 @@ class AreaLight(Light):
             hit = (cos_light > 0) & (t > 0) & (t < t_max) & inside
             area = self.area()
             pdf = np.where(hit, t * t / (cos_light * area), 0.0)
+            spherical = hit & self.spherical(origins)
+            if spherical.any():
+                rows = np.flatnonzero(spherical)
+                omega = rectangle_solid_angle(origins[rows], np.broadcast_to(self.rectangle(), (len(rows), 3, 3)))
+                pdf[rows] = np.where(omega > 0.0, 1.0 / omega, 0.0)
             radiance = np.where(hit, self.radiance() * spread_attenuation(self.spread, cos_light)
                                 * self.ies_factor(-directions) * self.falloff_factor(np.where(hit, t, 1.0)), 0.0)
         reach = np.where(hit, t, 1.0)

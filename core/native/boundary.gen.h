@@ -101,6 +101,8 @@
 #define LIGHT_SHIFT 32768
 /* a chain's k-th scattering event: k x this past its stretch's dimensions (core.integrators.volume) */
 #define CHAIN_SHIFT 131072
+/* the heights over an Area lamp (in its diagonals) within which its spherical rectangle samples it (core.lights.area) */
+#define AREA_NEAR 100.0
 /* how a lamp's UV is made (LampGraph.uv_kind) (core.lights.lamp_graph) */
 #define UV_SPHERE 0
 #define UV_SPOT 1
