@@ -32,6 +32,15 @@ INLINE int area_spherical(const LightRecord *light, const double *R, const doubl
     return height * height < AREA_NEAR * AREA_NEAR * dot3(diagonal, diagonal);
 }
 
+/* area.spread_attenuation for a light whose Spread is below 180 degrees, at cos(theta_light) cos_light > 0: its
+ * narrowing (tan h - tan theta)+ / norm; 1 for a light of full spread. */
+INLINE double area_spread(const LightRecord *light, double cos_light)
+{
+    if (light->spread_narrow == 0.0) return 1.0;
+    double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
+    return at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
+}
+
 /* Where on a DISK or ELLIPSE light the sample u falls, in its unit square's frame: the concentric
  * map of the square onto the unit disk (Shirley-Chiu), halved (area.concentric_disk). */
 INLINE void area_disk_point(const double *u, double *x, double *y)
@@ -61,11 +70,7 @@ INLINE void sample_area(const LightRecord *light, const double *P, double x, dou
     double pdf = d * d / (cos_light * light->area);
     geometry = ((cos_light > 0.0) & (d > 0.0)) ? geometry : 0.0;
     pdf = ((cos_light > 0.0) & (d > 0.0)) ? pdf : 0.0;
-    if (light->spread_narrow != 0.0) {
-        double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
-        double narrowed = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
-        geometry *= cos_light > 0.0 ? narrowed : 0.0;
-    }
+    geometry *= cos_light > 0.0 ? area_spread(light, cos_light) : 0.0;
     out->distance = d;
     out->strength = light->radiance * geometry;
     out->pdf = pdf;
@@ -83,11 +88,7 @@ INLINE void sample_area_light(const LightRecord *light, const double *P, const d
         double cos_light = -dot3(out->L, light->direction);
         int facing = (cos_light > 0.0) & (t > 0.0) & (pdf > 0.0);
         double geometry = facing ? 1.0 / pdf : 0.0;
-        if (light->spread_narrow != 0.0) {
-            double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
-            double narrowed = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
-            geometry *= facing ? narrowed : 0.0;
-        }
+        geometry *= facing ? area_spread(light, cos_light) : 0.0;
         out->distance = t;
         out->strength = light->radiance * geometry;
         out->pdf = facing ? pdf : 0.0;
@@ -117,11 +118,7 @@ INLINE int area_light_hit(const LightRecord *light, const double *O, const doubl
     int inside = light->ellipse != 0.0 ? x * x + y * y <= 0.25 : (fabs(x) <= 0.5) & (fabs(y) <= 0.5);
     int hit = (cos_light > 0.0) & (t > 0.0) & (t < t_max) & inside;
     if (!hit) return 0;
-    double attenuation = 1.0;
-    if (light->spread_narrow != 0.0) {
-        double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
-        attenuation = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
-    }
+    double attenuation = area_spread(light, cos_light);             /* (cos_light > 0 here) */
     out->t = t;
     attenuation *= ies_lamp_factor(light, D) * lamp_falloff(light, t);
     for (int c = 0; c < 3; c++) out->radiance[c] = light->radiance * attenuation * light->color[c];
