@@ -10,7 +10,14 @@ object or the world it ends at):
   object whose triangle was sampled;
 - what a BSDF ray finds goes to the group of what it finds: a lamp with extent, the object hit, the world;
 - what the camera sees itself goes to the group of what it sees: an emitting surface (the object's group),
-  a lamp with extent, the world where the ray escapes.
+  a lamp with extent, the world where the ray escapes;
+- what a medium scatters goes to the group of the light it scatters, as at a surface (the light samples and the
+  phase ray's finds at each scattering point: core/integrators/volume.py, volume.c);
+- what media emit along a ray goes to one group, as Cycles' film_write_volume_emission gives the stretch's whole
+  emission to object_lightgroup of the shader data's object, the last entry of the ray's volume stack: the group of
+  the object whose medium the ray is in (`emission_groups`; in several at once, the column listed last: Primer's
+  stack keeps counts, not the order Cycles entered them in), else the world's (the world's medium's entry is the
+  world's light object, whose group is the world's).
 
 Each is the same value the Combined pass receives (MIS weights, clamping and the path's throughput included),
 so the groups' passes add up to Combined wherever every source is in some group. Both kernels write them: the
@@ -46,12 +53,15 @@ class LightGroups:
                image by the world's, NONE for the emissive meshes (they go by the object of each triangle)
     instances: (i,) int64 the group of each Scene.instances entry (what it emits)
     world:     the world's group
+    media:     (V,) int64 the group of each medium (core/volumes Media's columns): that of the objects whose material
+               holds it (`of_media`), or None before the media are known
     """
 
     count: int
     lights: np.ndarray
     instances: np.ndarray
     world: int
+    media: Optional[np.ndarray] = None
 
     @classmethod
     def of(cls, scene, names, lamps: list, lights: list) -> Optional["LightGroups"]:
@@ -88,6 +98,45 @@ class LightGroups:
             return self.of_prims(geometry, light.prim[np.asarray(ls.emitter, np.int64)])
         return int(self.lights[index])
 
+    def of_media(self, geometry, media) -> tuple:
+        """(the group (V,) int64 of each column of `media` (core/volumes Media): the group of the objects whose
+        triangles carry its material, NONE where none does; the columns (c,) int64 whose objects are in different
+        groups, which take the first such object's group)."""
+        from ..volumes.media import triangle_chunks
+        V = len(media.g)
+        first = np.full(V, np.iinfo(np.int64).max)                # the first object (instance index) of each
+        groups = [set() for _ in range(V)]
+        owner_groups = np.append(self.instances, NONE)
+        for prims, triangles in triangle_chunks(geometry):
+            column = media.column[triangles.material]
+            rows = np.flatnonzero(column >= 0)
+            if len(rows) == 0:
+                continue
+            owners = geometry.owners(prims[rows])
+            for v in np.unique(column[rows]):
+                mine = owners[column[rows] == v]
+                groups[v].update(int(g) for g in np.unique(owner_groups[mine]))
+                first[v] = min(first[v], int(np.where(mine >= 0, mine, np.iinfo(np.int64).max).min()))
+        out = np.full(V, NONE, np.int64)
+        for v in range(V):
+            if first[v] < len(self.instances):
+                out[v] = self.instances[first[v]]
+            elif groups[v]:
+                out[v] = min(groups[v])
+        mixed = np.array([v for v in range(V) if len(groups[v]) > 1], np.int64)
+        return out, mixed
+
+    def emission_groups(self, inside: np.ndarray) -> np.ndarray:
+        """The group (k,) int64 that the media's emission along rays with stacks `inside` (k, V) goes to: that of
+        the last column the ray is in (Cycles: the object of the last entry of its volume stack), else the world's."""
+        inside = np.asarray(inside)
+        out = np.full(len(inside), self.world, np.int64)
+        if inside.ndim == 2 and inside.shape[1] and self.media is not None and len(self.media):
+            present = inside > 0
+            last = inside.shape[1] - 1 - np.argmax(present[:, ::-1], axis=1)
+            out = np.where(present.any(axis=1), self.media[last], out)
+        return out
+
     def emitter_groups(self, geometry, emitters) -> np.ndarray:
         """The group (t,) int32 of each emissive triangle's object (the compiled chunk's table)."""
         return self.of_prims(geometry, emitters.prim).astype(np.int32)
@@ -118,6 +167,14 @@ class GroupLight:
         a BSDF weight) or 1."""
         values = other.L if factor is None else other.L * np.asarray(factor, np.float64)[:, None, :]
         np.add.at(self.L, np.asarray(rows, np.int64), values)
+
+
+def add_emitted(groups: Optional[GroupLight], rows, value: np.ndarray, stretch) -> None:
+    """Add the media's emission value (k, 3) along rays (the Stretch `stretch` of k rows, which carries their stacks)
+    to `groups`' rows `rows` (k,) (or None: nothing), in each ray's emission group (LightGroups.emission_groups)."""
+    if groups is None or stretch is None or getattr(stretch, "inside", None) is None:
+        return
+    groups.add(rows, value, groups.groups.emission_groups(stretch.inside))
 
 
 def tally(ctx, m: int) -> Optional[GroupLight]:

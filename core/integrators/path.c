@@ -136,17 +136,17 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
                               NULL, ds->media != NULL ? &inside : NULL, r->time, r->ao};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
+        double f = clamp_scale(light_L, throughput, cap, 1.0);
+        for (int c = 0; c < 3; c++) found[c] += light_L[c] * f;
+        if (groups != NULL)                         /* (the same weight: T up to this stretch's start) */
+            for (int64_t g = 0; g < ds->groups; g++)
+                for (int c = 0; c < 3; c++) groups[3 * g + c] += groups_L[3 * g + c] * T[c] * f;
         if (ds->media != NULL) {                    /* (and what reaches the next surface) */
             double kept[3];
             March march;                            /* (through a heterogeneous medium: its march, field.c) */
             stretch_transmittance(stretch_march(ds->media, &inside, O, D, t, sigma, emission, &march), sigma, t, kept);
             for (int c = 0; c < 3; c++) T[c] *= kept[c];
         }
-        double f = clamp_scale(light_L, throughput, cap, 1.0);
-        for (int c = 0; c < 3; c++) found[c] += light_L[c] * f;
-        if (groups != NULL)
-            for (int64_t g = 0; g < ds->groups; g++)
-                for (int c = 0; c < 3; c++) groups[3 * g + c] += groups_L[3 * g + c] * T[c] * f;
         /* 3. A ray that met another surface goes on. */
         if (!hit) return;
         u = (double)packet.hit.u[0];

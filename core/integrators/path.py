@@ -274,12 +274,12 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
                                         paths=graph_.paths_at(paths, alive)._replace(transparent=passed[alive]),
                                         receiver=None if ray.receiver is None else ray.receiver[rows][alive],
                                         t_max=t_max, ao=short)
-        if media is not None:                    # (and what reaches the next surface)
-            T[alive] *= stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         found[alive] += light * f[:, None]
-        if groups is not None:
+        if groups is not None:                   # (the same weight: T up to this stretch's start)
             groups.add_rows(alive, found_groups, T[alive] * f[:, None])
+        if media is not None:                    # (and what reaches the next surface)
+            T[alive] *= stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
         # 3. The rays that met another surface go on.
         more = hits.hit
         alive, O, D = alive[more], O[more], D[more]
@@ -361,7 +361,7 @@ class PathTracing(Integrator):
             events = {} if light is not None else None
             scattered, shadow_rays, camera_through, arrivals = volume_.multiple_scattering(
                 ctx, O, D, np.where(found.hit, found.t, t_max), inside, np.ones((len(O), 3)), pixel, sample, 0,
-                counters, through_transparent, events)
+                counters, through_transparent, events, groups)
             L_out += scattered
             if light is not None:
                 everyone, volume_only = np.arange(len(O)), lightpasses.volume_shares(len(O))
@@ -373,7 +373,7 @@ class PathTracing(Integrator):
             # The light the media scatter towards the camera along its rays (core/integrators/volume.py).
             scattered, shadow_rays = volume_.in_scattering(ctx, O, D, np.where(found.hit, found.t, t_max), inside,
                                                            np.ones((len(O), 3)), pixel, sample, 0, 0,
-                                                           through_transparent, recorder)
+                                                           through_transparent, recorder, groups)
             L_out += scattered
             if light is not None:
                 light[:, lightpasses.VOLUME] += scattered
@@ -594,11 +594,14 @@ class PathTracing(Integrator):
                                         portal=ray.path.portal[multi], bounds=vb[multi])
                         path_rows = owner[ray.rows[multi]]
                         events = {} if light is not None else None
+                        stretch_groups = lightgroups.tally(ctx, len(multi))
                         scattered, count, passing, vertex_arrivals = volume_.multiple_scattering(
                             ctx, ray.O[multi], ray.D[multi], np.where(ray.hits.hit[multi], ray.hits.t[multi], np.inf),
                             ray.inside[multi], carried, pixel[path_rows], sample[path_rows],
-                            (vertex + 1) * VERTEX_DIMENSIONS, counters, through_transparent, events)
+                            (vertex + 1) * VERTEX_DIMENSIONS, counters, through_transparent, events, stretch_groups)
                         L_out[path_rows] += scattered
+                        if groups is not None:
+                            groups.add_rows(path_rows, stretch_groups)
                         if light is not None:
                             # (the light passes: lightpasses.stretch_shares, for the arrivals too)
                             here = lightpasses.stretch_shares(bounces[multi], path_shares[multi])
@@ -613,11 +616,14 @@ class PathTracing(Integrator):
                 if len(live):
                     path_rows = owner[ray.rows[live]]
                     carried = throughput[ray.rows[live]] * ray.weight[live] / q[live, None]
+                    stretch_groups = lightgroups.tally(ctx, len(live))
                     scattered, count = volume_.in_scattering(
                         ctx, ray.O[live], ray.D[live], np.where(ray.hits.hit[live], ray.hits.t[live], np.inf),
                         ray.inside[live], carried, pixel[path_rows], sample[path_rows],
-                        (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent, recorder)
+                        (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent, recorder, stretch_groups)
                     L_out[path_rows] += carried * scattered
+                    if groups is not None:
+                        groups.add_rows(path_rows, stretch_groups, carried)
                     shadow_rays += count
                     if light is not None:
                         lightpasses.add_scattered(light, path_rows, carried * scattered, bounces[live],

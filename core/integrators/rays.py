@@ -19,7 +19,7 @@ from ..geometry.surface import surface_at_hits
 from ..lights import LightFlags
 from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
 from . import clamp as clamp_
-from . import shadows
+from . import lightgroups, shadows
 from .base import Context, Recorder
 
 
@@ -50,7 +50,9 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
     # 3. Lamps seen by the camera in front of what it hits (area lights, round lights), suns where it escapes.
     L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), groups, escaped=~found.hit, sigma=sigma)
     if stretch is not None:
-        L_out += volumes.emitted(stretch, np.where(found.hit, found.t, t_max))
+        emitted = volumes.emitted(stretch, np.where(found.hit, found.t, t_max))
+        L_out += emitted
+        lightgroups.add_emitted(groups, np.arange(len(O)), emitted, stretch)
     # What the camera sees itself is a direct contribution (Clamp Direct).
     if np.isfinite(limit):
         f = clamp_.scale(L_out, None, limit)

@@ -553,6 +553,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     sigma = stretch
     if stretch is not None:
         light_L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
+        lightgroups.add_emitted(groups, np.arange(len(O)), light_L, stretch)   # (by the medium's object's group)
     t_limit = np.where(hits.hit, hits.t, np.inf if t_max is None else t_max)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
     # From mis_O: how far each ray's end (inf: none) and its start O are.

@@ -43,7 +43,7 @@ from ..native import schema
 from ..sampling import sobol as sampling
 from ..volumes.phase import Phases
 from ..visibility import HIDDEN_FROM_VOLUME_SCATTER
-from . import shadows
+from . import lightgroups, shadows
 from .base import Context, check_stop
 from .rays import nearest_seen
 from .vertex import (BsdfRay, gather_light, light_count, light_numbers, power_heuristic, shadow_blockers,
@@ -119,14 +119,15 @@ def equiangular(O: np.ndarray, D: np.ndarray, t: np.ndarray, X: np.ndarray, u=No
 
 def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                   throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce,
-                  behind, recorder=None) -> tuple:
+                  behind, recorder=None, groups=None) -> tuple:
     """The light (k, 3) float64 that the media scatter towards the starts of rays O, D (k, 3) over distances t (k,)
     (inf: to the world), seen through each path's `throughput` (k, 3) (not included), and the shadow rays traced.
 
     inside: (k, V) the rays' media (core/volumes Media.crossed); pixel, sample: (k,) the keys of their random
     numbers; dimension: the vertex's shift of the sampling dimensions; bounce: (k,) or int the real bounces the paths
     made before the stretch (a light's Max Bounces); behind: path.through_transparent, for the phase rays;
-    recorder: a Recorder told each scattering point (Recorder.scatter), or None."""
+    recorder: a Recorder told each scattering point (Recorder.scatter), or None; groups: a lightgroups.GroupLight of
+    the k rays that receives L by the group of each light scattered (scattered_light), or None."""
     media = ctx.extra["media"]
     stretch = media.along(inside, O, D)
     L = np.zeros((len(O), 3))
@@ -137,10 +138,13 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     rows = rows[~stretch.varying[rows]]
     shadow_rays = 0
     if len(marched):
+        part_groups = part_tally(groups, len(marched))
         L[marched], shadow_rays = marched_scattering(ctx, stretch.rows(marched), O[marched], D[marched],
                                                      np.asarray(t, np.float64)[marched], inside[marched],
                                                      throughput[marched], pixel[marched], sample[marched], dimension,
-                                                     bounces[marched], behind, recorder)
+                                                     bounces[marched], behind, recorder, part_groups)
+        if groups is not None:
+            groups.add_rows(marched, part_groups)
     if len(rows) == 0:
         return L, shadow_rays
     part = stretch.rows(rows)
@@ -161,9 +165,12 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     bounces = bounces[rows]
     lamps = equiangular_lamps(ctx)
     share = {index: pdf / (pdf + equiangular(o, d, length, X, s=s)[1]) for index, X in lamps.items()}
+    point_groups = part_tally(groups, len(rows))
     scattered, count = scattered_light(ctx, P, -d, part.phases(), inside[rows], pixel[rows], sample[rows],
-                                       dimension, bounces, behind, share)
+                                       dimension, bounces, behind, share, groups=point_groups)
     L[rows] = weight * scattered
+    if groups is not None:
+        groups.add_rows(rows, point_groups, weight)
     shadow_rays += count
     # 3. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
     for index, X in lamps.items():
@@ -179,23 +186,27 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
         T = volumes.transmittance(part.sigma_t[chosen], s_e[chosen]) * part.sigma_s[chosen]
         if recorder is not None:
             recorder.scatter("equi-angular", o[chosen] + s_e[chosen, None] * d[chosen])
+        point_groups = part_tally(groups, len(at))
         lit, count = scattered_light(ctx, o[chosen] + s_e[chosen, None] * d[chosen], -d[chosen],
                                      part.phases().rows(chosen),
                                      inside[at], pixel[at], sample[at], dimension, bounces[chosen], behind,
-                                     only=index)
+                                     only=index, groups=point_groups)
         L[at] += T * (w / pdf_e[chosen])[:, None] * lit
+        if groups is not None:
+            groups.add_rows(at, point_groups, T * (w / pdf_e[chosen])[:, None])
         shadow_rays += count
     return L, shadow_rays
 
 
 def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                        throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
-                       bounce: np.ndarray, behind, recorder=None) -> tuple:
+                       bounce: np.ndarray, behind, recorder=None, groups=None) -> tuple:
     """in_scattering for k rays in a heterogeneous medium (stretch: their volumes.Stretch): the same estimate on the
     pieces of their march (core/volumes/field.py): free flight inverting the optical depth of a channel picked by
     throughput x the rays' albedo (their optical depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's
-    equi-angular point weighed against it by the balance heuristic (recorder: told the free-flight points, or None).
-    Returns (L (k, 3), shadow rays)."""
+    equi-angular point weighed against it by the balance heuristic (recorder: told the free-flight points, or None;
+    groups: a lightgroups.GroupLight of the k rays that receives L by group, or None). Returns (L (k, 3), shadow
+    rays)."""
     k = len(O)
     L = np.zeros((k, 3))
     march = stretch.march(t, np.arange(k))
@@ -215,25 +226,30 @@ def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: n
         share = {index: pdf[ok] / (pdf[ok] + equiangular(O[ok], D[ok], t[ok], X, s=s[ok])[1])
                  for index, X in lamps.items()}
         X = O[ok] + s[ok, None] * D[ok]
+        point_groups = part_tally(groups, len(ok))
         scattered, shadow_rays = scattered_light(ctx, X, -D[ok], stretch.phases_at(ok, X, g[ok]), inside[ok],
-                                                 pixel[ok], sample[ok], dimension, bounce[ok], behind, share)
+                                                 pixel[ok], sample[ok], dimension, bounce[ok], behind, share,
+                                                 groups=point_groups)
         L[ok] = weight * scattered
+        if groups is not None:
+            groups.add_rows(ok, point_groups, weight)
     # 2. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
     shadow_rays += equiangular_light(ctx, march, lambda at: march.pdf(odds, at), O, D, t, inside, pixel, sample,
-                                     dimension, bounce, behind, L, np.arange(k), stretch.phases_at)
+                                     dimension, bounce, behind, L, np.arange(k), stretch.phases_at, groups)
     return L, shadow_rays
 
 
 def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.ndarray, t: np.ndarray,
                       inside: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray,
-                      behind, L: np.ndarray, rows: np.ndarray, phases: Phases = None) -> int:
+                      behind, L: np.ndarray, rows: np.ndarray, phases: Phases = None, groups=None) -> int:
     """Add to L[rows] (rows (r,)) the light r rays O, D (r, 3) over [0, t) (r,) through a marched medium (march:
     their core/volumes/field.py March) scatter back from each lamp with a position: a point by equi-angular sampling,
     lit by that lamp alone, weight T(s) sigma_s(s) / pdf, weighed against the distance sampling of density
     distance_pdf(s) (r,) by the balance heuristic; phases: the rays' phase functions (phase.Phases, r rows) where
     their media are homogeneous, or in a heterogeneous medium phases(chosen, X, g) -> phase.Phases of the points X
     (c, 3) of the rays chosen (c,) (of the r) with the march's g (c,) there (media.Stretch.phases_at), or None: HG
-    of the march's g there. Returns the shadow rays cast."""
+    of the march's g there; groups: a lightgroups.GroupLight of L's rows that receives what is added to L by group,
+    or None. Returns the shadow rays cast."""
     shadow_rays = 0
     for index, X in equiangular_lamps(ctx).items():
         u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=EQUIANGULAR_DIMENSION + index + dimension)
@@ -248,12 +264,20 @@ def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.nd
         X = O[chosen] + s_e[chosen, None] * D[chosen]
         phase = (Phases.henyey_greenstein(g_e[chosen]) if phases is None else
                  phases.rows(chosen) if isinstance(phases, Phases) else phases(chosen, X, g_e[chosen]))
+        point_groups = part_tally(groups, len(chosen))
         lit, count = scattered_light(ctx, X, -D[chosen], phase,
                                      inside[chosen], pixel[chosen], sample[chosen], dimension, bounce[chosen], behind,
-                                     only=index)
+                                     only=index, groups=point_groups)
         L[rows[chosen]] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
+        if groups is not None:
+            groups.add_rows(rows[chosen], point_groups, T[chosen] * (w[chosen] / pdf_e[chosen])[:, None])
         shadow_rays += count
     return shadow_rays
+
+
+def part_tally(groups, m: int):
+    """A lightgroups.GroupLight of m rows with the groups of `groups` (a GroupLight), or None where it is None."""
+    return None if groups is None else lightgroups.GroupLight(groups.groups, m)
 
 
 def equiangular_lamps(ctx: Context) -> dict:
@@ -280,7 +304,7 @@ def scatter_paths(m: int, bounce) -> "graph_.LightPaths":
 
 def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: np.ndarray,
                     pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray, behind,
-                    share: dict = None, only: int = None, phase_out: dict = None) -> tuple:
+                    share: dict = None, only: int = None, phase_out: dict = None, groups=None) -> tuple:
     """The light (m, 3) float64 that scattering points P (m, 3) with phase functions `phase` (phase.Phases, m rows;
     or Henyey-Greenstein anisotropies (m,)) send
     towards wo (m, 3) per unit sigma_s (the integral of p L over the sphere), and the shadow rays traced: light
@@ -288,7 +312,9 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
     share: light index -> (m,) the weight of its light samples here (their point's share against equi-angular
     points), or None; only: a light's index: its light samples alone (an equi-angular point), no phase ray.
     phase_out: a dict that receives the phase ray ("wi" (m, 3), "pdf" (m,), "hits") where the path goes on along it
-    (Volume Bounces left: the light behind the transparent surfaces it meets is then the path's to find), or None."""
+    (Volume Bounces left: the light behind the transparent surfaces it meets is then the path's to find), or None.
+    groups: a lightgroups.GroupLight of the m points that receives L by the group of its source (a light sample:
+    its light's, the phase ray's finds: what they find, the media's emission: lightgroups.add_emitted), or None."""
     s = ctx.settings
     m = len(P)
     phase = phase if isinstance(phase, Phases) else Phases.henyey_greenstein(phase)
@@ -349,6 +375,9 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
                 w = w * np.where(weighed, power_heuristic(count * ls.pdf[rows], p), 1.0)
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
             L[rows] += (w * p)[:, None] * color * through
+            if groups is not None:
+                group = groups.groups.of_sample(ctx.geometry, index, light, ls)
+                groups.add(rows, (w * p)[:, None] * color * through, group if np.ndim(group) == 0 else group[rows])
     # 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1).
     if only is None and (bsdf_rays or ctx.extra["media"].emits or phase_out is not None):
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=PHASE_DIMENSION + dimension)
@@ -361,7 +390,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
             phase_out.update(wi=ps.wi, pdf=ps.pdf, hits=hits)
         if gather:
             L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch,
-                              paths=scatter_paths(m, bounce), receiver=nowhere)
+                              paths=scatter_paths(m, bounce), receiver=nowhere, groups=groups)
         if gather and phase_out is None:
             # Straight on through the transparent surfaces it meets, to the light behind them.
             T = stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
@@ -372,9 +401,14 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
             if len(rows):
                 rows = rows[ctx.materials.may_pass[ctx.geometry.triangle_data(hits.prim[rows], smooth=False).material]]
             if len(rows):
-                L[rows] += behind(ctx, ray, rows, T[rows], np.zeros(len(rows), np.int64))
+                behind_groups = part_tally(groups, len(rows))
+                L[rows] += behind(ctx, ray, rows, T[rows], np.zeros(len(rows), np.int64), np.inf, behind_groups)
+                if groups is not None:
+                    groups.add_rows(rows, behind_groups)
         elif not gather:
-            L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
+            emitted = volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
+            L += emitted
+            lightgroups.add_emitted(groups, np.arange(m), emitted, stretch)
     return L, shadow_rays
 
 
@@ -395,14 +429,15 @@ def volume_bounces_left(ctx: Context, volume: np.ndarray, bounce: np.ndarray) ->
 
 def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                     throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
-                    bounce: np.ndarray) -> tuple:
+                    bounce: np.ndarray, groups=None) -> tuple:
     """A stretch of rays O, D (k, 3) over [0, t) (k,) whose paths go on from where they scatter: free flight decides
     whether each scatters in its media (a distance drawn without truncation, by a channel picked by throughput (k, 3)
     x albedo) or goes on to its end. Returns (L (k, 3) the light gathered at the scattering points per unit
     throughput (light samples and the phase ray's finds, weighed by MIS), shadow rays, through (k, 3) what a path
     that goes on to the end carries on: T(t) / P(no collision), 0 where it scattered, and the onward rays: None or
     a dict of rows (c,) (the rays that scattered), O (c, 3) their scattering points, D (c, 3) their phase
-    directions, hits, pdf (c,) the phase pdf, weight (c, 3) T(s) sigma_s(s) / pdf(s))."""
+    directions, hits, pdf (c,) the phase pdf, weight (c, 3) T(s) sigma_s(s) / pdf(s)). groups: a
+    lightgroups.GroupLight of the k rays that receives L by group, or None."""
     from ..volumes.field import March
     media = ctx.extra["media"]
     k = len(O)
@@ -439,7 +474,7 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
                                          t[group], inside[group], pixel[group], sample[group], dimension,
                                          np.asarray(bounce)[group], None, L, group,
                                          (lambda chosen, X, g: stretch.phases_at(group[chosen], X, g))
-                                         if is_varying else part.phases())
+                                         if is_varying else part.phases(), groups)
         hit = np.flatnonzero(~passed)
         if len(hit) == 0:
             continue
@@ -452,9 +487,12 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
                  for index, X in equiangular_lamps(ctx).items()}
         phase = {}
         phases = stretch.phases_at(here, P, g[hit]) if is_varying else part.phases().rows(hit)
+        point_groups = part_tally(groups, len(here))
         light, count = scattered_light(ctx, P, -D[here], phases, inside[here], pixel[here], sample[here], dimension,
-                                       np.asarray(bounce)[here], None, share, phase_out=phase)
+                                       np.asarray(bounce)[here], None, share, phase_out=phase, groups=point_groups)
         L[here] += weight * light
+        if groups is not None:
+            groups.add_rows(here, point_groups, weight)
         shadow_rays += count
         onward.append(dict(rows=here, O=P, D=phase["wi"], hits=phase["hits"], pdf=phase["pdf"], weight=weight))
     return L, shadow_rays, through, joined(onward)
@@ -478,7 +516,7 @@ def joined(parts: list):
 
 def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                         throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
-                        counts: dict, behind, events: dict = None) -> tuple:
+                        counts: dict, behind, events: dict = None, groups=None) -> tuple:
     """The stretches of rays O, D (k, 3) over [0, t) whose paths have Volume Bounces left (volume_bounces_left),
     carrying `throughput` (k, 3): each scatters or goes on (scatter_or_pass); a path that scattered goes on along
     its phase ray, whose own stretch scatters or goes on again while it has bounces left, and otherwise gathers its
@@ -490,12 +528,16 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
     dict of the scattered paths that reach a surface: origin (a,) the ray each came from, throughput (a, 3), O, D
     (a, 3) their last ray, hits, pdf (a,) its phase pdf, inside (a, V), and each counter of `counts`).
     events: a dict that receives L's two parts (the light passes, lightpasses.add_scattered): "first" (k, 3) the
-    light gathered at the stretches' own scattering events, "later" (k, 3) at the events after them; or None."""
+    light gathered at the stretches' own scattering events, "later" (k, 3) at the events after them; or None.
+    groups: a lightgroups.GroupLight of the k rays that receives L (throughput included) by group, or None."""
     k = len(O)
     L = np.zeros((k, 3))
+    first_groups = part_tally(groups, k)
     light, shadow_rays, through, onward = scatter_or_pass(ctx, O, D, t, inside, throughput, pixel, sample, dimension,
-                                                          counts["bounce"])
+                                                          counts["bounce"], first_groups)
     L += throughput * light
+    if groups is not None:
+        groups.add_rows(np.arange(k), first_groups, throughput)
     if events is not None:
         events["first"] = L.copy()
     arrivals = []
@@ -516,10 +558,13 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
         # a. Paths that end at their next scattering event: their single scattering, and on to the hit with T.
         last = np.flatnonzero(~going)
         if len(last):
+            last_groups = part_tally(groups, len(last))
             found, count = in_scattering(ctx, P[last], wi[last], reach[last], stack[last], carried[last],
                                          pixel[origin[last]], sample[origin[last]], dim, state["bounce"][last],
-                                         behind)
+                                         behind, groups=last_groups)
             np.add.at(L, origin[last], carried[last] * found)
+            if groups is not None:
+                groups.add_rows(origin[last], last_groups, carried[last])
             shadow_rays += count
             stretch = ctx.extra["media"].along(stack[last], P[last], wi[last])
             carry[last] = carried[last] * stretch.transmittance(reach[last])
@@ -527,10 +572,13 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
         more = np.flatnonzero(going)
         after = None
         if len(more):
+            more_groups = part_tally(groups, len(more))
             light, count, passing, after = scatter_or_pass(ctx, P[more], wi[more], reach[more], stack[more],
                                                            carried[more], pixel[origin[more]], sample[origin[more]],
-                                                           dim, state["bounce"][more])
+                                                           dim, state["bounce"][more], more_groups)
             np.add.at(L, origin[more], carried[more] * light)
+            if groups is not None:
+                groups.add_rows(origin[more], more_groups, carried[more])
             shadow_rays += count
             carry[more] = carried[more] * passing
         # c. Those that reach a surface arrive there, the next vertex of their paths.

@@ -220,6 +220,16 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     warnings.extend(note for note in (media.notes if media is not None else ()) if note not in warnings)
     if media is not None:                  # (where camera rays may start inside a mesh's medium)
         ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
+    groups = ctx.extra["light_groups"]
+    if media is not None and groups is not None:      # (the group each medium's emission goes to: lightgroups.py)
+        groups.media, mixed = groups.of_media(geometry, media)
+        if len(mixed) and media.emits:
+            names = ", ".join(repr(getattr(list(scene.materials)[int(row)], "name", row)) if row < len(scene.materials)
+                              else "'default'" for row in np.flatnonzero(np.isin(media.column, mixed)))
+            note = (f"volumes: the medium of {names} is on objects in different light groups; its emission goes to "
+                    "the group of the first of them (Cycles: of the object the ray entered)")
+            if note not in warnings:
+                warnings.append(note)
     see_through = any(shader.may_let_light_through for shader in materials.shaders)
     ctx.extra["transparent"] = (see_through
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
@@ -545,7 +555,7 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
     Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c); more volume materials than
     its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
-    no media, and that the media's light goes to Combined only, not to the light groups."""
+    no media, and, with light groups, which group the emission of overlapping media of different groups goes to."""
     media = ctx.extra.get("media")
     if media is None:
         return ""
@@ -555,9 +565,11 @@ def volume_reason(ctx: Context, warnings: list) -> str:
         if note not in warnings:
             warnings.append(note)
         return ""
-    if (media.scatters or media.emits) and s.light_groups:
-        note = ("volumes: the light media scatter and emit goes to Combined only, not to the light groups (Cycles "
-                "writes it to the group of its light)")
+    groups = ctx.extra.get("light_groups")
+    if media.emits and groups is not None and groups.media is not None and len(set(groups.media.tolist())) > 1:
+        # (lightgroups.LightGroups.emission_groups: the stack's last column, where Cycles takes the last entered)
+        note = ("volumes: where a ray is inside the media of objects in different light groups at once, their "
+                "emission goes to the group of the medium Primer lists last (Cycles: of the one the ray entered last)")
         if note not in warnings:
             warnings.append(note)
     if media.scatters and s.denoising_features:

@@ -407,7 +407,7 @@ class Media:
             counts = np.broadcast_to(counts, (len(inside), len(columns))).astype(np.float64)
         return Stretch(self.world.sigma_t + weights @ self.sigma_t, sigma_s,
                        self.world.emission + weights @ self.emission, g, O, D, counts, self.fields or None, kind,
-                       parameters)
+                       parameters, inside)
 
     def crossed(self, inside: np.ndarray, material: np.ndarray, backfacing: np.ndarray,
                 crossing: np.ndarray) -> np.ndarray:
@@ -460,7 +460,8 @@ class Stretch(NamedTuple):
     """The media n rays cross (Media.along): sigma_t, sigma_s, emission (n, 3) float64, g (n,) float64 of the
     homogeneous ones; for heterogeneous ones (core/volumes/field.py), the rays O, D (n, 3), counts (n, F) how many
     times each ray is in each Field of `fields` (None: no ray is in one); phase (n,) int64 and parameters (n,
-    PHASE_PARAMETERS) their phase function (None: HG of g)."""
+    PHASE_PARAMETERS) their phase function (None: HG of g); inside (n, V) the stacks they were made of (the light
+    groups' emission group: lightgroups.LightGroups.emission_groups), or None."""
 
     sigma_t: np.ndarray
     sigma_s: np.ndarray
@@ -472,13 +473,14 @@ class Stretch(NamedTuple):
     fields: Optional[list] = None
     phase: Optional[np.ndarray] = None
     parameters: Optional[np.ndarray] = None
+    inside: Optional[np.ndarray] = None
 
     def rows(self, index) -> "Stretch":
         """The stretch of the rays `index`."""
         pick = lambda x: None if x is None else x[index]                   # noqa: E731
         return Stretch(self.sigma_t[index], self.sigma_s[index], self.emission[index], self.g[index],
                        pick(self.O), pick(self.D), pick(self.counts), self.fields, pick(self.phase),
-                       pick(self.parameters))
+                       pick(self.parameters), pick(self.inside))
 
     def phases(self) -> "phase_.Phases":
         """The homogeneous media's phase functions (phase.Phases, n rows): HG of g where none is given."""
