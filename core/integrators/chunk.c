@@ -245,7 +245,8 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                 double later[3] = {0.0, 0.0, 0.0};
                 scattering_rays += volume_chain(&ds, &limits, O, D, H->t[lane], H->lane_inside + lane, one,
                                                 (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0, 0,
-                                                H->lane_scattered[lane], later, through[lane], a, &arrived);
+                                                H->lane_scattered[lane], later, through[lane], a, &arrived,
+                                                lane_groups != NULL ? lane_groups + 3 * lane * ds.groups : NULL);
                 if (ds.light_passes) {
                     add_scattered(work->lane_light[lane], H->lane_scattered[lane], 0, volume_only, 1);
                     add_scattered(work->lane_light[lane], later, 0, volume_only, 0);
@@ -266,9 +267,13 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                 }
                 continue;
             }
+            double found_groups[3 * MAX_LIGHT_GROUPS];
             scattering_rays += in_scattering(&ds, (int)params->integrator == INTEGRATOR_PATH ? &limits : &clear_only,
                                              O, D, H->t[lane], H->lane_inside + lane, one, (int64_t)b->pixel[lane],
-                                             (int64_t)b->index[lane], 0, 0, H->lane_scattered[lane]);
+                                             (int64_t)b->index[lane], 0, 0, H->lane_scattered[lane],
+                                             lane_groups != NULL ? found_groups : NULL);
+            if (lane_groups != NULL)            /* (its light groups, by the source of each light scattered) */
+                add_groups(lane_groups + 3 * lane * ds.groups, found_groups, ds.groups, one);
             if (ds.light_passes) add_scattered(work->lane_light[lane], H->lane_scattered[lane], 0, volume_only, 1);
         }
         if (chains) {
@@ -703,8 +708,14 @@ static void render_chunk(const ChunkArgs *a)
                     && params->light_context->world->camera != 0.0)
                     add_to_group(seen, G, 0, params->world_group, s, 1.0);
             }
-            if (sigma != NULL && b.valid[lane])         /* the media's emission along the camera ray */
-                stretch_emitted(marched, sigma, H.lane_emission[lane], H.t[lane], s);
+            if (sigma != NULL && b.valid[lane]) {       /* the media's emission along the camera ray */
+                double emitted[3] = {0.0, 0.0, 0.0};    /* (its light group: the medium's object's, media.c) */
+                stretch_emitted(marched, sigma, H.lane_emission[lane], H.t[lane], emitted);
+                for (int c = 0; c < 3; c++) s[c] += emitted[c];
+                if (groups != NULL)
+                    add_to_group(seen, G, 0, emission_group(params->media, &H.lane_inside[lane], params->world_group),
+                                 emitted, 1.0);
+            }
             double f = 1.0;
             int scattering = params->media != NULL && params->media->scatters != 0 && work != NULL && b.valid[lane];
             if (params->clamp_direct < INFINITY) {      /* what the camera sees itself: a direct contribution */

@@ -326,6 +326,10 @@ class Compiled:
             if emitters is not None:
                 self.emitter_groups = groups.emitter_groups(geometry, emitters)
                 self.emitter_tables.record.group = self.emitter_groups
+            if media is not None and groups.media is not None and len(groups.media):
+                # (each medium's object's group: its emission's, LightGroups.emission_groups)
+                self.media_groups = library.contiguous(groups.media, np.int32)
+                self.media_tables.groups = self.media_groups
 
     @staticmethod
     def applies(ctx: Context) -> bool:

@@ -99,6 +99,14 @@ INLINE void add_to_group(double *groups, int64_t count, int64_t row, int64_t gro
     for (int c = 0; c < 3; c++) out[c] += value[c] * scale;
 }
 
+/* Add the light groups `from` (G, 3) times scale (3, per channel) to `to` (G, 3); nothing where `to` is NULL. */
+INLINE void add_groups(double *to, const double *from, int64_t G, const double *scale)
+{
+    if (to == NULL) return;
+    for (int64_t g = 0; g < G; g++)
+        for (int c = 0; c < 3; c++) to[3 * g + c] += from[3 * g + c] * scale[c];
+}
+
 /* The light group of the object an Embree hit is on (lightgroups.LightGroups.of_prims). */
 INLINE int64_t group_of_hit(const int32_t *instance_groups, const GeometryTables *g, int64_t geometry, int64_t prim,
                             int64_t instance)
@@ -1017,8 +1025,12 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
      * medium's by its march (field.c), built once where something asks for it (what the media let through below). */
     LazyMarch lazy;
     lazy_march_start(&lazy, ds->media, ray->inside, O, D, hit ? t_limit : INFINITY, sigma, ray->emission);
-    if (sigma != NULL && ds->media != NULL && ds->media->emits != 0)
-        stretch_emitted(lazy_march(&lazy), sigma, ray->emission, hit ? t_limit : INFINITY, light_L);
+    if (sigma != NULL && ds->media != NULL && ds->media->emits != 0) {
+        double emitted[3] = {0.0, 0.0, 0.0};            /* (its light group: the medium's object's, media.c) */
+        stretch_emitted(lazy_march(&lazy), sigma, ray->emission, hit ? t_limit : INFINITY, emitted);
+        for (int c = 0; c < 3; c++) light_L[c] += emitted[c];
+        add_to_group(groups_L, ds->groups, 0, emission_group(ds->media, ray->inside, ds->world_group), emitted, 1.0);
+    }
     int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);
     double t_mis = t_limit, t_start = 0.0;      /* from P: how far the ray's end (inf: none) and its start O are */
     if (away) {

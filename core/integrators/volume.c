@@ -67,15 +67,19 @@ typedef struct {
  * light per unit sigma_s into L (3, zeroed here). flight: the free-flight point P is (each equi-angular lamp's light samples
  * there weighed against that lamp's equi-angular points by the balance heuristic), or NULL; only: a light's index (an equi-angular point: its samples alone, no phase ray), or
  * -1; onward: where the path goes on along the phase ray (Volume Bounces), that ray (the light behind the
- * transparent surfaces it meets is then the path's to find), or NULL. Returns the shadow rays traced. */
+ * transparent surfaces it meets is then the path's to find), or NULL. groups: (ds->groups, 3) L by the group of its
+ * source (zeroed here; lightgroups.py: a light sample's light's, the phase ray's finds', the media's emission by
+ * emission_group), or NULL. Returns the shadow rays traced. */
 static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limits, const double *P, const double *wo,
                                const Phase *phase, const VolumeStack *inside, int64_t pixel, int64_t sample,
                                int64_t dimension, int bounce, const FreeFlight *flight, int64_t only, double *L,
-                               PhaseRay *onward)
+                               PhaseRay *onward, double *groups)
 {
     int64_t rays = 0;
     double zero[3] = {0.0, 0.0, 0.0};
     L[0] = L[1] = L[2] = 0.0;
+    if (groups != NULL)
+        for (int64_t i = 0; i < 3 * ds->groups; i++) groups[i] = 0.0;
     /* 1. Light samples, each with its shadow ray through the media. */
     for (int64_t l = 0; l < ds->n_lights; l++) {
         const LightRecord *light = ds->lights + l;
@@ -136,7 +140,12 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
             }
             if (extent && light->use_mis != 0 && hittable && ds->mis && blockers == ALL_SETS)
                 w = w * power_heuristic((double)count * ls.pdf, p);   /* (shadow-linked: light samples alone) */
-            for (int c = 0; c < 3; c++) L[c] += (w * p) * ls.color[c] * T[0][c];
+            double value[3];
+            for (int c = 0; c < 3; c++) { value[c] = (w * p) * ls.color[c] * T[0][c]; L[c] += value[c]; }
+            if (groups != NULL)                          /* (an emitter's group is its object's) */
+                add_to_group(groups, ds->groups, 0,
+                             ls.emitter >= 0 && e != NULL && e->group != NULL ? e->group[ls.emitter] : light->group,
+                             value, 1.0);
         }
     }
     /* 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1). */
@@ -170,7 +179,10 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     March march;                                         /* (through a heterogeneous medium: its march, field.c) */
     const March *marched = stretch_march(ds->media, inside, P, wi, t, sigma_t, emission, &march);
     if (!ds->gather) {
-        stretch_emitted(marched, sigma_t, emission, t, L);
+        double emitted[3] = {0.0, 0.0, 0.0};
+        stretch_emitted(marched, sigma_t, emission, t, emitted);
+        for (int c = 0; c < 3; c++) L[c] += emitted[c];
+        add_to_group(groups, ds->groups, 0, emission_group(ds->media, inside, ds->world_group), emitted, 1.0);
         return rays;
     }
     double light_L[3] = {0.0, 0.0, 0.0};
@@ -179,7 +191,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                           instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, HIDDEN_FROM_VOLUME_SCATTER, &scatter, 0,
                           sigma_t, emission, NULL,
                           inside, STILL_TIME, 0};         /* (a render with media moves no object) */
-    gather_light(ds, &finding, light_L, NULL);
+    gather_light(ds, &finding, light_L, groups);
     for (int c = 0; c < 3; c++) L[c] += light_L[c];
     if (!hit || ds->transmitter == NULL || onward != NULL) return rays;
     /* Straight on through the transparent surfaces it meets, to the light behind them. */
@@ -202,30 +214,33 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     stretch_transmittance(marched, sigma_t, t, r.attenuation);
     for (int c = 0; c < 3; c++) { r.O[c] = P[c]; r.D[c] = wi[c]; r.weight[c] = 1.0; r.mis_O[c] = P[c]; r.mis_N[c] = 0.0; }
     double behind[3] = {0.0, 0.0, 0.0};
-    through_transparent(&r, 0, limits, ds, r.weight, INFINITY, behind, NULL);
+    through_transparent(&r, 0, limits, ds, r.weight, INFINITY, behind, groups);
     for (int c = 0; c < 3; c++) L[c] += behind[c];
     return rays;
 }
 
 /* volume.in_scattering for one ray O, D (3) over [0, t) (inf: to the world) in the media `inside`, carrying
  * `throughput` (3, not included): the light its media scatter towards O, into L (3, zeroed here). dimension: the
- * vertex's shift of the sampling dimensions; bounce: the real bounces the path made (a light's Max Bounces).
- * Returns the shadow rays traced. */
+ * vertex's shift of the sampling dimensions; bounce: the real bounces the path made (a light's Max Bounces);
+ * groups: (ds->groups, 3) L by group (zeroed here), or NULL. Returns the shadow rays traced. */
 static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
                              double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
-                             int64_t sample, int64_t dimension, int bounce, double *L);
+                             int64_t sample, int64_t dimension, int bounce, double *L, double *groups);
 
 /* volume.equiangular_light: each lamp with a position adds the light scattered at its equi-angular point on O, D
  * over [0, t), lit by that lamp alone and weighed by the balance heuristic against free flight (odds), into L (3):
  * in a marched medium m (its march gives the coefficients and transmittance there; phase: the phase function of
  * a homogeneous one, NULL: that of the heterogeneous one at the point, phase_at) or, m NULL, in the homogeneous one
  * of sigma_t, sigma_s (3) and phase function `phase`. collision: 1 where free flight is untruncated
- * (march_collision: a path that scatters or goes on), 0 truncated at t. Returns the shadow rays traced. */
+ * (march_collision: a path that scatters or goes on), 0 truncated at t. groups: (ds->groups, 3) what is added to
+ * L by group, added to, or NULL. Returns the shadow rays traced. */
 static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *limits, const March *m,
                                  const double *sigma_t, const double *sigma_s, const Phase *phase, const double *odds,
                                  int collision, const double *O, const double *D, double t, const VolumeStack *inside,
-                                 int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L)
+                                 int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L,
+                                 double *groups)
 {
+    double lit_groups[3 * MAX_LIGHT_GROUPS];
     double wo[3] = {-D[0], -D[1], -D[2]};
     int64_t rays = 0;
     for (int64_t l = 0; l < ds->n_lights; l++) {
@@ -251,8 +266,10 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
             beer_lambert(sigma_t, s_e, kept);
         }
         rays += scattered_light(ds, limits, X, wo, &here, inside, pixel, sample, dimension, bounce, NULL, l, lit,
-                                NULL);
-        for (int c = 0; c < 3; c++) L[c] += (kept[c] * at_s[c]) * (w / pdf_e) * lit[c];
+                                NULL, groups != NULL ? lit_groups : NULL);
+        double scale[3];
+        for (int c = 0; c < 3; c++) { scale[c] = (kept[c] * at_s[c]) * (w / pdf_e); L[c] += scale[c] * lit[c]; }
+        add_groups(groups, lit_groups, ds->groups, scale);
     }
     return rays;
 }
@@ -260,11 +277,14 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
 /* volume.marched_scattering: in_scattering for a ray O, D over [0, t) in a heterogeneous medium (its march m,
  * field.c): free flight inverting the optical depth of a channel picked by throughput x the ray's albedo (its optical
  * depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's equi-angular point weighed against it by the
- * balance heuristic; into L (3, zeroed by the caller). Returns the shadow rays traced. */
+ * balance heuristic; into L (3, zeroed by the caller) and by group into groups ((ds->groups, 3), zeroed by the
+ * caller, or NULL). Returns the shadow rays traced. */
 static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *limits, const March *m, const double *O,
                                   const double *D, double t, const VolumeStack *inside, const double *throughput,
-                                  int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L)
+                                  int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L,
+                                  double *groups)
 {
+    double point_groups[3 * MAX_LIGHT_GROUPS];
     double tau_t[3], tau_s[3], odds[3], u[2], s = 0.0, wo[3] = {-D[0], -D[1], -D[2]};
     int64_t rays = 0;
     march_totals(m, tau_t, tau_s);
@@ -281,23 +301,27 @@ static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *li
         phase_at(ds->media, inside, P, g, &phase);       /* (a heterogeneous medium: its phase function there) */
         FreeFlight flight = {O, D, t, s, pdf};
         rays += scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
-                                scattered, NULL);
-        for (int c = 0; c < 3; c++) L[c] = (kept[c] * sigma_s[c] / pdf) * scattered[c];
+                                scattered, NULL, groups != NULL ? point_groups : NULL);
+        double scale[3];
+        for (int c = 0; c < 3; c++) { scale[c] = kept[c] * sigma_s[c] / pdf; L[c] = scale[c] * scattered[c]; }
+        add_groups(groups, point_groups, ds->groups, scale);
     }
     /* 2. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
     rays += equiangular_lamps(ds, limits, m, NULL, NULL, NULL, odds, 0, O, D, t, inside, pixel, sample, dimension,
-                              bounce, L);
+                              bounce, L, groups);
     return rays;
 }
 
 static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
                              double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
-                             int64_t sample, int64_t dimension, int bounce, double *L)
+                             int64_t sample, int64_t dimension, int bounce, double *L, double *groups)
 {
     const MediaTables *media = ds->media;
     double sigma_t[3], emission[3], sigma_s[3], g;
     Phase phase;
     L[0] = L[1] = L[2] = 0.0;
+    if (groups != NULL)
+        for (int64_t i = 0; i < 3 * ds->groups; i++) groups[i] = 0.0;
     medium_along(media, inside, sigma_t, emission);
     medium_scattering(media, inside, sigma_s, &g, &phase);
     if (media->fields != NULL && in_field(media, inside)) {     /* (a heterogeneous medium: on its march) */
@@ -305,7 +329,7 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
         March march;
         march_of(media, inside, O, D, t, sigma_t, sigma_s, emission, g, &march);
         return marched_scattering(ds, limits, &march, O, D, t, inside, throughput, pixel, sample, dimension, bounce,
-                                  L);
+                                  L, groups);
     }
     if (!(sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0)) return 0;
     /* 1. Where the ray scatters (free flight), and its weight T(s) sigma_s / pdf(s). */
@@ -323,13 +347,14 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
     for (int c = 0; c < 3; c++) { weight[c] = kept[c] * sigma_s[c] / pdf; P[c] = O[c] + s * D[c]; }
     /* 2. The light scattered there, each lamp's samples weighed against its equi-angular points (3.). */
     FreeFlight flight = {O, D, t, s, pdf};
-    double scattered[3];
+    double scattered[3], point_groups[3 * MAX_LIGHT_GROUPS];
     int64_t rays = scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
-                                   scattered, NULL);
+                                   scattered, NULL, groups != NULL ? point_groups : NULL);
     for (int c = 0; c < 3; c++) L[c] = weight[c] * scattered[c];
+    add_groups(groups, point_groups, ds->groups, weight);
     /* 3. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
     rays += equiangular_lamps(ds, limits, NULL, sigma_t, sigma_s, &phase, odds, 0, O, D, t, inside, pixel, sample,
-                              dimension, bounce, L);
+                              dimension, bounce, L, groups);
     return rays;
 }
 
@@ -346,15 +371,19 @@ typedef struct {
  * collides in its media or goes on to its end. Into L (3) the light gathered at the collision (light samples and
  * the phase ray's finds, weighed by MIS) and at each lamp's equi-angular point, per unit throughput; into through
  * (3) what a path that goes on to the end carries on, T(t) / P(no collision), 0 where it collided; into next where
- * it collided and its phase ray. Returns the shadow rays traced. */
+ * it collided and its phase ray. groups: (ds->groups, 3) L by group (zeroed here), or NULL. Returns the shadow
+ * rays traced. */
 static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
                                double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
-                               int64_t sample, int64_t dimension, int bounce, double *L, double *through, Onward *next)
+                               int64_t sample, int64_t dimension, int bounce, double *L, double *through, Onward *next,
+                               double *groups)
 {
     const MediaTables *media = ds->media;
     double sigma_t[3], emission[3], sigma_s[3], g;
     Phase phase;
     L[0] = L[1] = L[2] = 0.0;
+    if (groups != NULL)
+        for (int64_t i = 0; i < 3 * ds->groups; i++) groups[i] = 0.0;
     next->scattered = 0;
     medium_along(media, inside, sigma_t, emission);
     medium_scattering(media, inside, sigma_s, &g, &phase);
@@ -386,7 +415,7 @@ static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limit
     /* 2. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone, weighed against the
      *    collisions by the balance heuristic. */
     int64_t rays = equiangular_lamps(ds, limits, &march, NULL, NULL, varying ? NULL : &phase, odds, 1, O, D, t, inside,
-                                     pixel, sample, dimension, bounce, L);
+                                     pixel, sample, dimension, bounce, L, groups);
     if (passed) return rays;
     /* 3. The collision: the light scattered there, and the phase ray the path goes on along. */
     double at_t[3], at_s[3], kept[3], light[3], wo[3] = {-D[0], -D[1], -D[2]};
@@ -396,9 +425,11 @@ static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limit
     for (int c = 0; c < 3; c++) { next->weight[c] = kept[c] * at_s[c] / pdf; next->P[c] = O[c] + s * D[c]; }
     if (varying) phase_at(media, inside, next->P, g_here, &here);   /* (its phase function there) */
     FreeFlight flight = {O, D, t, s, pdf};
+    double point_groups[3 * MAX_LIGHT_GROUPS];
     rays += scattered_light(ds, limits, next->P, wo, &here, inside, pixel, sample, dimension, bounce, &flight, -1,
-                            light, &next->ray);
+                            light, &next->ray, groups != NULL ? point_groups : NULL);
     for (int c = 0; c < 3; c++) L[c] += next->weight[c] * light[c];
+    add_groups(groups, point_groups, ds->groups, next->weight);
     next->scattered = 1;
     return rays;
 }
@@ -412,19 +443,23 @@ static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limit
  * reached a surface, *arrived 1 and its arrival (its throughput, ray, bounces and media; the caller fills the rest).
  * dimension: the stretch's shift of sampling dimensions, each later event CHAIN_SHIFT more. later: where the light
  * found at the events after the stretch's own goes instead of L (3, added to; the light passes'
- * multiple_scattering events), or NULL: L. Returns the shadow rays traced. */
+ * multiple_scattering events), or NULL: L. groups: (ds->groups, 3) all the light found (L's and later's) by group,
+ * added to, or NULL. Returns the shadow rays traced. */
 NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits *limits, const double *O,
                                      const double *D, double t, const VolumeStack *inside, const double *throughput,
                                      int64_t pixel, int64_t sample, int64_t dimension, int bounce, int volume,
-                                     double *L, double *later, double *through, Arrival *arrival, int *arrived)
+                                     double *L, double *later, double *through, Arrival *arrival, int *arrived,
+                                     double *groups)
 {
     double *after_L = later != NULL ? later : L;
     double light[3], carried[3] = {throughput[0], throughput[1], throughput[2]};
+    double step_groups[3 * MAX_LIGHT_GROUPS], *found_groups = groups != NULL ? step_groups : NULL;
     Onward onward, after;
     *arrived = 0;
     int64_t rays = scatter_or_pass(ds, limits, O, D, t, inside, throughput, pixel, sample, dimension, bounce, light,
-                                   through, &onward);
+                                   through, &onward, found_groups);
     for (int c = 0; c < 3; c++) L[c] += throughput[c] * light[c];
+    add_groups(groups, found_groups, ds->groups, throughput);
     for (int64_t step = 1; onward.scattered; step++) {
         for (int c = 0; c < 3; c++) carried[c] *= onward.weight[c];
         bounce++;
@@ -436,8 +471,10 @@ NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits 
         if (!(volume < limits->volume_bounces && bounce + 1 <= limits->max_bounces)) {
             /* a. The path ends at its next scattering event: its single scattering, and on to the hit with T. */
             double found[3], sigma_t[3], emission[3], kept[3];
-            rays += in_scattering(ds, limits, P, wi, reach, inside, carried, pixel, sample, dim, bounce, found);
+            rays += in_scattering(ds, limits, P, wi, reach, inside, carried, pixel, sample, dim, bounce, found,
+                                  found_groups);
             for (int c = 0; c < 3; c++) after_L[c] += carried[c] * found[c];
+            add_groups(groups, found_groups, ds->groups, carried);
             medium_along(ds->media, inside, sigma_t, emission);
             March march;
             stretch_transmittance(stretch_march(ds->media, inside, P, wi, reach, sigma_t, emission, &march), sigma_t,
@@ -447,8 +484,9 @@ NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits 
             /* b. It scatters again or goes on. */
             double passing[3];
             rays += scatter_or_pass(ds, limits, P, wi, reach, inside, carried, pixel, sample, dim, bounce, light,
-                                    passing, &after);
+                                    passing, &after, found_groups);
             for (int c = 0; c < 3; c++) { after_L[c] += carried[c] * light[c]; carry[c] = carried[c] * passing[c]; }
+            add_groups(groups, found_groups, ds->groups, carried);
         }
         /* c. A path that reaches a surface arrives there, the next vertex of its path. */
         if (onward.ray.hit && (carry[0] != 0.0 || carry[1] != 0.0 || carry[2] != 0.0)) {
@@ -475,6 +513,8 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
 {
     uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)(vertex + 1) * VERTEX_DIMENSIONS);
     int64_t shadow_rays = 0;
+    double *groups = ds->groups > 0 ? work->groups : NULL;   /* (each camera lane's light groups, as work->extra) */
+    double found_groups[3 * MAX_LIGHT_GROUPS];
     for (int64_t i = 0; i < rays->n; i++) {
         PathRay *r = rays->r + i;
         int64_t h = r->h;
@@ -512,9 +552,14 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
             int arrived = 0;
             Arrival *a = work->arrivals + work->n_arrivals;
             double later[3] = {0.0, 0.0, 0.0};
+            double one[3] = {1.0, 1.0, 1.0};
+            if (groups != NULL)                      /* (volume_chain adds to them) */
+                for (int64_t i = 0; i < 3 * ds->groups; i++) found_groups[i] = 0.0;
             shadow_rays += volume_chain(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
                                         H->pixel[h], H->sample[h], dimension, bounces, H->volume[h], L, later,
-                                        through, a, &arrived);
+                                        through, a, &arrived, groups != NULL ? found_groups : NULL);
+            if (groups != NULL)                      /* (its light groups: the chain's, throughput included) */
+                add_groups(groups + 3 * ds->groups * H->lane[h], found_groups, ds->groups, one);
             for (int c = 0; c < 3; c++) work->extra[H->lane[h]][c] += L[c] + later[c];
             if (ds->light_passes) {
                 add_scattered(work->light[H->lane[h]], L, bounces, shares, 1);
@@ -544,11 +589,14 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
             continue;
         }
         shadow_rays += in_scattering(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
-                                     H->pixel[h], H->sample[h], dimension, bounces, L);
+                                     H->pixel[h], H->sample[h], dimension, bounces, L,
+                                     groups != NULL ? found_groups : NULL);
         for (int c = 0; c < 3; c++) {
             L[c] *= carried[c];
             work->extra[H->lane[h]][c] += L[c];
         }
+        if (groups != NULL)                          /* (its light groups, through the same weight) */
+            add_groups(groups + 3 * ds->groups * H->lane[h], found_groups, ds->groups, carried);
         if (ds->light_passes) add_scattered(work->light[H->lane[h]], L, bounces, shares, 1);
     }
     return shadow_rays;

@@ -1341,6 +1341,7 @@ struct MediaTables {
     double field_low[3];                    /* the box of all of them (where a march cuts pieces) */
     double field_high[3];
     double field_step;                      /* the march's longest piece (the smallest of their boxes' diagonals / STEPS_ACROSS) */
+    const int32_t *groups;                  /* (V,) each column's light group (lightgroups.LightGroups.media; -1: none), or NULL: no light groups (compiled.py sets it) */
 };
 
 /* primer_phase_rows' arguments: Phases.eval and Phases.sample for n rows (phase.c). */
@@ -1401,7 +1402,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(4923474972672114994);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(6367773730817885968);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(2306803395546795759);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;
 }

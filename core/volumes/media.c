@@ -13,6 +13,16 @@ INLINE void stack_empty(VolumeStack *stack)
     for (int v = 0; v < MAX_MEDIA; v++) stack->count[v] = 0;
 }
 
+/* lightgroups.LightGroups.emission_groups for one stack: the light group of the media's emission along a ray in it,
+ * that of the last column the ray is in (Cycles: the object of its volume stack's last entry), else world_group. */
+INLINE int64_t emission_group(const MediaTables *media, const VolumeStack *stack, int64_t world_group)
+{
+    if (media->groups == NULL || stack == NULL) return world_group;
+    for (int64_t v = (int64_t)media->count - 1; v >= 0; v--)
+        if (stack->count[v] > 0) return (int64_t)media->groups[v];
+    return world_group;
+}
+
 /* Media.along for one stack: the extinction sigma_t (3) and emission (3) of what the ray crosses, the world's plus
  * each medium's as many times as it is in it (the counts' weighted sum first, then the world's, as Python adds). */
 INLINE void medium_along(const MediaTables *media, const VolumeStack *stack, double *sigma_t, double *emission)

@@ -453,6 +453,8 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
     ("field_low", F64, 3, "the box of all of them (where a march cuts pieces)"),
     ("field_high", F64, 3, ""),
     ("field_step", F64, "the march's longest piece (the smallest of their boxes' diagonals / STEPS_ACROSS)"),
+    ("groups", ptr(I32), "(V,) each column's light group (lightgroups.LightGroups.media; -1: none), or NULL: no "
+                         "light groups (compiled.py sets it)"),
 ])
 
 
