@@ -126,6 +126,21 @@ class LightGroups:
         mixed = np.array([v for v in range(V) if len(groups[v]) > 1], np.int64)
         return out, mixed
 
+    def overlapping(self, geometry, media) -> bool:
+        """Whether the boxes of two media of `media` (core/volumes Media) in different groups (`media`, of_media)
+        overlap: where a ray may be in both at once, and its emission's group is the one listed last's."""
+        from ..volumes.media import material_bounds
+        if self.media is None or len(set(self.media.tolist())) < 2:
+            return False
+        rows = np.flatnonzero(media.column >= 0)
+        boxes = {int(media.column[row]): material_bounds(geometry, int(row)) for row in rows}
+        for a in boxes:
+            for b in boxes:
+                if a < b and self.media[a] != self.media[b] and np.all(boxes[a][0] < boxes[b][1]) \
+                        and np.all(boxes[b][0] < boxes[a][1]):
+                    return True
+        return False
+
     def emission_groups(self, inside: np.ndarray) -> np.ndarray:
         """The group (k,) int64 that the media's emission along rays with stacks `inside` (k, V) goes to: that of
         the last column the ray is in (Cycles: the object of the last entry of its volume stack), else the world's."""

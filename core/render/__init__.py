@@ -230,6 +230,13 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                     "the group of the first of them (Cycles: of the object the ray entered)")
             if note not in warnings:
                 warnings.append(note)
+        if media.emits and groups.overlapping(geometry, media):
+            # (LightGroups.emission_groups: the stack's last column, where Cycles takes the one entered last)
+            note = ("volumes: where a ray is inside the media of objects in different light groups at once, their "
+                    "emission goes to the group of the medium Primer lists last (Cycles: of the one the ray entered "
+                    "last)")
+            if note not in warnings:
+                warnings.append(note)
     see_through = any(shader.may_let_light_through for shader in materials.shaders)
     ctx.extra["transparent"] = (see_through
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
@@ -555,7 +562,7 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
     Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c); more volume materials than
     its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
-    no media, and, with light groups, which group the emission of overlapping media of different groups goes to."""
+    no media. (prepare says which light group the emission of overlapping media of different groups goes to.)"""
     media = ctx.extra.get("media")
     if media is None:
         return ""
@@ -565,13 +572,6 @@ def volume_reason(ctx: Context, warnings: list) -> str:
         if note not in warnings:
             warnings.append(note)
         return ""
-    groups = ctx.extra.get("light_groups")
-    if media.emits and groups is not None and groups.media is not None and len(set(groups.media.tolist())) > 1:
-        # (lightgroups.LightGroups.emission_groups: the stack's last column, where Cycles takes the last entered)
-        note = ("volumes: where a ray is inside the media of objects in different light groups at once, their "
-                "emission goes to the group of the medium Primer lists last (Cycles: of the one the ray entered last)")
-        if note not in warnings:
-            warnings.append(note)
     if media.scatters and s.denoising_features:
         # (features.in_media: Cycles' rule in expectation, with its unguided odds of passing a medium)
         note = ("volumes: the Denoising Albedo and Normal take scattering media as Cycles does with its unguided odds "
