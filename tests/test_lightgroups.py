@@ -225,3 +225,15 @@ def test_overlapping_media_of_different_groups_say_where_their_emission_goes(ker
     assert any("different light groups at once" in note for note in result.stats.warnings)
     np.testing.assert_allclose(sum(group(result, name) for name in "ABF"), result.image[..., :3], rtol=1e-5,
                                atol=1e-6)
+
+
+def test_a_medium_on_objects_of_different_groups_emits_into_the_first_ones_and_says_so():
+    """The glow's material on a second box in no group: Primer's volume stack counts materials, not objects, so both
+    boxes' emission goes to the first box's group F (Cycles: each box's own), and the render says so."""
+    scene = foggy_room()
+    scene.add_mesh(primitives.box((0.5, 0.5, 0.5), center=(0.8, -1.2, 0.5)), materials=np.array([3]), name="Glow2")
+    scene.lightgroups["instances"].append("")
+    result = render.render(scene, settings("numpy", light_groups=("A", "B", "F")))
+    assert any("'Glow' is on objects in different light groups" in note for note in result.stats.warnings)
+    np.testing.assert_allclose(sum(group(result, name) for name in "ABF"), result.image[..., :3], rtol=1e-5,
+                               atol=1e-6)
