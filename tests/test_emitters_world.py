@@ -20,6 +20,7 @@ from core.geometry import primitives
 from core.lights import MeshEmitters, World, WorldLight
 from core.lights.base import compiled_sample
 from core.lights.emitters import solid_angle, spherical_triangle_sample
+from core.lights.world import uv_to_direction
 from core.scene import Material, Mesh, RenderSettings, Scene
 
 
@@ -153,6 +154,57 @@ def test_world_map_pdf_integrates_to_one_and_sampling_follows_it():
     bright = sample.L[:, 2] > 0.8                          # the patch's band of elevation
     expected = np.mean(sampler.pdf(d) * (d[:, 2] > 0.8)) * 4.0 * math.pi
     assert bright.mean() == pytest.approx(expected, rel=0.02)
+
+
+def test_compensated_world_map_samples_only_where_the_world_outshines_its_mean():
+    """MIS compensation (world.compensated_map): the map less its solid-angle mean radiance is a pdf over the
+    sphere (it integrates to 1), 0 wherever the world is at or below its mean, and > 0 wherever it is brighter; a
+    world as bright everywhere has nothing left to sample."""
+    world = World(image=environment(), strength=1.0)
+    sampler = WorldLight.of(world, compensate=True)
+    # Quadrature over the sphere: a grid of (u, v) at the map's cells' centres (1024 x 512), dw = 2 pi^2 sin du dv.
+    u, v = np.meshgrid((np.arange(1024) + 0.5) / 1024, (np.arange(512) + 0.5) / 512)
+    d = uv_to_direction(u.ravel(), v.ravel())
+    dw = 2.0 * math.pi ** 2 * np.sin(math.pi * v.ravel()) / (1024 * 512)
+    pdf = sampler.pdf(d)
+    assert np.sum(pdf * dw) == pytest.approx(1.0, rel=1e-6)
+    L = world.radiance(d).mean(axis=1)
+    mean = np.sum(L * dw) / (4.0 * math.pi)
+    clear = np.abs(L - mean) > 0.05 * mean             # (away from the cells that straddle the mean)
+    assert np.all((pdf[clear] > 0.0) == (L[clear] > mean))
+    sample = sampler.sample(np.zeros((20_000, 3)), np.random.default_rng(5).random((20_000, 2)))
+    assert np.all(world.radiance(sample.L).mean(axis=1) > 0.5 * mean)
+    flat = np.full((16, 32, 3), 0.7, np.float32)
+    assert WorldLight.of(World(image=flat), compensate=True) is None
+
+
+def glossy_plane_under_the_environment() -> Scene:
+    """A rough metal plane (Glossy BSDF, roughness 0.3) under environment(), seen straight down."""
+    scene = Scene(camera=ortho_down(height=1.0, scale=0.5), world=World(image=environment(), strength=1.0))
+    scene.materials.append(Material(name="metal", nodes=[("GLOSSY", (0.9, 0.8, 0.7), {"roughness": 0.3})]))
+    scene.add_mesh(primitives.plane(1e5), materials=np.array([0]))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_mis_compensation_keeps_a_glossy_planes_light_and_lowers_its_noise(kernels, monkeypatch):
+    """A glossy plane under an environment: the light its pixels get is the same whether the world's light samples
+    go by the plain map or by the compensated one (each estimator is unbiased, so they differ by noise alone: within
+    4 standard errors over 8 seeds; measured at 256 samples x 16 seeds: 0.67582 and 0.67572, 1.3 standard errors), and the compensated map's pixels are less noisy."""
+    scene = glossy_plane_under_the_environment()
+
+    def pixels(compensate: bool) -> np.ndarray:
+        monkeypatch.setattr(render, "compensates_world", lambda settings: compensate)
+        return np.array([render.render(scene, RenderSettings(width=8, height=8, samples=4 if kernels == "numpy" else 16,
+                                                             kernels=kernels, adaptive=False, seed=seed)).image[..., :3]
+                         for seed in range(8)])
+
+    plain, compensated = pixels(False), pixels(True)
+    # (the standard error from the seeds' image means: a seed's pixels share its sample pattern's structure)
+    means = plain.mean(axis=(1, 2, 3)), compensated.mean(axis=(1, 2, 3))
+    error = np.sqrt((means[0].var(ddof=1) + means[1].var(ddof=1)) / 8)
+    assert abs(means[0].mean() - means[1].mean()) < 4.0 * error
+    assert compensated.var(axis=0).mean() < 0.9 * plain.var(axis=0).mean()
 
 
 @pytest.mark.parametrize("size", [(64, 32), (1024, 512), (100, 37)])

@@ -199,12 +199,36 @@ def reference_map(values: np.ndarray, sines: np.ndarray, w: int, h: int) -> tupl
     to end at 1 where the row has any; totals (h,): each row's sum before that), all float64."""
     f = bilinear_grid(values, w, h)
     f *= sines[:, None]
+    return (f, *running_sums(f))
+
+
+def running_sums(f: np.ndarray) -> tuple:
+    """Each row's running sums of the map `f` (h, w) float64: (columns (h, w + 1) from 0, normalised to end at 1 where
+    the row has any; totals (h,): each row's sum)."""
+    h, w = f.shape
     columns = np.empty((h, w + 1))
     columns[:, 0] = 0.0
     np.cumsum(f, axis=1, out=columns[:, 1:])
     totals = columns[:, -1].copy()
     columns /= np.where(columns[:, -1:] > 0, columns[:, -1:], 1.0)
-    return f, columns, totals
+    return columns, totals
+
+
+def compensated_map(f: np.ndarray, sines: np.ndarray) -> tuple:
+    """The importance map `f` (h, w) float64 (radiance x sin(theta), rows' sines `sines` (h,)) less its mean radiance
+    over the sphere, floored at 0, with its rows' running sums and totals as reference_map gives them.
+
+    MIS compensation (Karlik, Sik, Vevoda, Skrivan and Krivanek 2019): where the world is as bright as its mean or
+    dimmer, BSDF-sampled rays find it well on their own, so its light samples need not go there. Sampling by
+    max(L - mean(L), 0) sends them to the bright parts alone, and the power heuristic (whose light pdf is this map's)
+    gives the BSDF rays full weight where the map is 0: the same estimate, with less noise where glossy and diffuse
+    closures meet a world of a few bright lights. It is unbiased only where every light sample has a BSDF ray as
+    its MIS partner (render.prepare's `compensate`). The mean is over solid angle: dw = 2 pi^2 sin(theta) du dv, so
+    mean(L) = (1 / 4 pi) sum(f) 2 pi^2 / (w h) = (pi / 2) mean(f). A map all at or below its mean (a constant world)
+    comes out all 0: not sampled, found by BSDF rays alone."""
+    delta = 0.5 * math.pi * float(f.mean())
+    f = np.maximum(f - delta * sines[:, None], 0.0)
+    return (f, *running_sums(f))
 
 
 WorldMapArgs = schema.function("primer_world_map", "world_map_rows", schema.record("WorldMapArgs", "primer_world_map's arguments: rows row_start .. row_end - 1 of a world's importance map (world.reference_map's numbers).", [
@@ -285,10 +309,13 @@ class WorldLight(Light):
         return self                          # infinitely far: no position
 
     @classmethod
-    def of(cls, world: World, width: int = 0, kernels: str = "compiled") -> Optional["WorldLight"]:
+    def of(cls, world: World, width: int = 0, kernels: str = "compiled",
+           compensate: bool = False) -> Optional["WorldLight"]:
         """The light of a world with an image (None for a constant or dark world, or one not sampled: map size (0,
         0)). width: the map's (its height half), else the world's map_size, else MAP_WIDTH; kernels "compiled" makes
-        the map in C where the library is loaded (world.c world_map_rows: the same numbers), "numpy" here."""
+        the map in C where the library is loaded (world.c world_map_rows: the same numbers), "numpy" here;
+        compensate: sample by the map less its mean (compensated_map), for renders whose BSDF rays find the world
+        with MIS wherever its light samples go."""
         size = (width, max(1, width // 2)) if width else world.map_size or (MAP_WIDTH, MAP_WIDTH // 2)
         if world.image is None or not world.lights or min(size) <= 0:
             return None
@@ -304,6 +331,8 @@ class WorldLight(Light):
         sines = np.sin(math.pi * ((np.arange(h) + 0.5) / h))
         f, columns, totals = (compiled_map if kernels == "compiled" and library.available() else reference_map)(
             mean, sines, w, h)
+        if compensate:
+            f, columns, totals = compensated_map(f, sines)
         row_sums = totals / w
         total = row_sums.sum() / h
         if not total > 0.0:

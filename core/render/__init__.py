@@ -177,7 +177,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     world = lights_.world.finite_world(scene.the_world(), warnings)
     # (textured emitters' estimates: their graphs run in C where the library is loaded, in both kernels alike)
     emitters = lights_.emitters.from_geometry(geometry, materials, compiled_graph_emission, warnings)
-    sampler = lights_.WorldLight.of(world)
+    sampler = lights_.WorldLight.of(world, compensate=compensates_world(settings))
     lights += [light for light in (emitters, sampler) if light is not None]
     ctx = Context(scene, settings, geometry, lights, materials, light_numbers)
     ctx.extra["world_light"] = world
@@ -555,6 +555,16 @@ def _usable_cores() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:              # macOS and Windows have no sched_getaffinity
         return os.cpu_count() or 1
+
+
+def compensates_world(settings: RenderSettings) -> bool:
+    """Whether the world's light samples go by its map less its mean (lights/world.py compensated_map): where every
+    light sample of it has a BSDF ray as its MIS partner that sees the same light (the direct and path tracers with
+    MIS and the lecture's defaults), and where the split between the two does not change the image (no clamping,
+    no Fast GI, whose escaping rays see the world dimmer than its light samples do, as in Cycles)."""
+    return (settings.integrator in ("direct", "path") and settings.light_sampling == "mis"
+            and settings.is_lecture_default() and not settings.sample_clamp_direct
+            and not settings.sample_clamp_indirect and not (settings.ao_bounces and settings.ao_factor))
 
 
 def volume_reason(ctx: Context, warnings: list) -> str:
