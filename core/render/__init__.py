@@ -570,7 +570,13 @@ def volume_reason(ctx: Context, warnings: list) -> str:
             warnings.append(note)
     if len(media.g) <= volumes.MAX_MEDIA:
         return ""
-    reason = f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
+    # (a material whose volume reads Object Info keeps a medium per object, or per group of objects that read alike:
+    # media.Media.of; each counts)
+    kept = int((media.keyed >= 0).sum())
+    reason = (f"more than {int(volumes.MAX_MEDIA)} media ({len(media.g)}"
+              + (f", of which {len(media.g) - int((media.column >= 0).sum())} kept per object for "
+                 f"{kept} material{'s' if kept > 1 else ''} whose volume reads Object Info" if kept else "")
+              + "), the compiled kernel's volume stack")
     note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
     if note not in warnings:
         warnings.append(note)

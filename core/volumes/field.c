@@ -111,8 +111,9 @@ static void grid_sample(const VolumeField *f, int g, const double *local, double
 }
 
 /* Field.coordinates and the volume shading point Field.at runs its program at: the camera-relative point P (3) in
- * world space, its Generated and Object coordinates, a volume-scatter path; info: room for OBJECT_INFO_WIDTH. */
-INLINE void field_point(const VolumeField *f, const double *P, double *info, ShadingPoint *sp)
+ * world space, its Generated and Object coordinates, a volume-scatter path; its object's Object Info (VolumeField.info,
+ * random: the placement and zeros, or for a medium kept per object that object's own row and random number). */
+INLINE void field_point(const VolumeField *f, const double *P, ShadingPoint *sp)
 {
     double world[3], local[3];
     for (int c = 0; c < 3; c++) world[c] = P[c] + f->origin[c];
@@ -131,11 +132,10 @@ INLINE void field_point(const VolumeField *f, const double *P, double *info, Sha
         sp->P[c] = world[c];
     }
     for (int c = 0; c < 9; c++) sp->L[c] = f->linear[c];
-    for (int c = 0; c < OBJECT_INFO_WIDTH; c++) info[c] = c < 3 ? f->placement[c] : 0.0;
-    sp->info = info;
-    sp->info_width = 8;
+    sp->info = f->info;
+    sp->info_width = f->info_width;
     sp->rays = NULL;                                    /* (a medium's graph traces nothing) */
-    sp->random = 0.0;
+    sp->random = f->random;
     sp->side = 1.0;
     LightPath path = {PATH_VOLUME_SCATTER, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
     sp->path = path;
@@ -168,8 +168,8 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
                      double *gs, Phase *mix, double count)
 {
     ShadingPoint sp;
-    double info[OBJECT_INFO_WIDTH], reg[MAX_REGISTERS];
-    field_point(f, P, info, &sp);
+    double reg[MAX_REGISTERS];
+    field_point(f, P, &sp);
     run_program(f->graph, 0, &sp, NULL, reg);
     for (int c = 0; c < 3; c++) sigma_a[c] = sigma_s[c] = emission[c] = 0.0;
     *gs = 0.0;

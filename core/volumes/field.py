@@ -147,9 +147,12 @@ class Field:
     world point the render's coordinates are relative to (geometry.origin); bounds: (low (3,), high (3,)) the
     camera-relative box of its triangles (the march's extent and step); step: the march's longest piece (None: the
     box's diagonal / STEPS_ACROSS); unbounded: the world's medium (`world_field`), which every ray is in and which
-    goes on past its box (March: held at its value where the ray leaves the box)."""
+    goes on past its box (March: held at its value where the ray leaves the box); info: (W,) float64 the Object Info
+    row its graph reads (a medium kept per object, media.Media.of: that object's row of geometry.instance_info) and
+    random its Object Info Random; None: Location the placement of `space`, every other column and Random 0."""
 
-    def __init__(self, entries: list, space=None, origin=None, bounds=None, step=None, unbounded=False):
+    def __init__(self, entries: list, space=None, origin=None, bounds=None, step=None, unbounded=False, info=None,
+                 random=0.0):
         from ..materials import graph as graph_
         self.entries = entries
         self.unbounded = bool(unbounded)
@@ -164,6 +167,9 @@ class Field:
         # (and object to world: the Vector Transform's and Object Info's Location, graph.object_matrices)
         placed = np.linalg.inv(np.vstack([self.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]
         self.linear, self.placement = placed[:, :3], placed[:, 3]
+        # (the Object Info its graph reads: C's VolumeField.info, random)
+        self.info = np.concatenate([self.placement, np.zeros(5)]) if info is None else np.asarray(info, np.float64)
+        self.random = float(random)
         self.low, self.high = ((np.full(3, -np.inf), np.full(3, np.inf)) if bounds is None
                                else (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)))
         diagonal = float(np.linalg.norm(self.high - self.low)) if np.isfinite(self.high - self.low).all() else 1.0
@@ -261,15 +267,16 @@ class Field:
 
     def closures(self, P: np.ndarray):
         """Each closure k's coefficients at camera-relative points P (n, 3) float64: (k, Sample (after its linked
-        Mix Shader factors), its inputs there {key: (n, width) float64}) in turn."""
+        Mix Shader factors), its inputs there {key: (n, width) float64}, and "factor" (n,) the product of its linked
+        Mix Shader factors where it has some) in turn."""
         from ..materials import graph as graph_
         n = len(P)
         width = 6 + GRID_WIDTH * len(self.grids)
-        info = np.zeros((n, 8))
-        info[:, :3] = self.placement
         point = graph_.empty_point(n, width)._replace(attributes=self.coordinates(P), P=P + self.origin,
                                                   path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]),
-                                                  linear=np.broadcast_to(self.linear, (n, 3, 3)), info=info)
+                                                  linear=np.broadcast_to(self.linear, (n, 3, 3)),
+                                                  info=np.broadcast_to(self.info, (n, len(self.info))),
+                                                  random=np.full(n, self.random))
         registers = graph_.run(self.program, point, self.textures)
         found, factors = {}, {}
         for kind, node, slot, width, register in self.program.outputs.astype(np.int64):
@@ -297,6 +304,7 @@ class Field:
             part = closure_at(name, float(weight), values, voxels)
             if k in factors:
                 f = factors[k]
+                values["factor"] = f                    # (n,) its linked Mix Shader factors' product
                 part = Sample(part.sigma_a * f[:, None], part.sigma_s * f[:, None], part.emission * f[:, None],
                               part.gs * f)
             yield k, part, values
@@ -792,6 +800,7 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
         factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
         matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
         linear=field.linear.reshape(-1), placement=field.placement, phases=c(field.phases), hot=c(field.hot),
+        info=c(field.info, np.float64), info_width=len(field.info), random=float(field.random),
         **grid_tables(field.grids))
 
 
@@ -840,4 +849,8 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("grid_count", I32, "G: a Volume object's grids its program reads (core/volumes/grids.py), or 0"),
     ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic"),
     ("voxels", ptr(F32), "the grids' values, each (X, Y, Z, C) row-major"),
+    ("info", ptr(F64), "(W,) the Object Info row its program reads (Field.info: the placement and zeros, or a medium "
+                       "kept per object's own row of geometry.instance_info)"),
+    ("info_width", I32, "W"),
+    ("random", F64, "the Object Info Random its program reads (0, or the object's: Field.random)"),
 ])

@@ -1,7 +1,9 @@
 /* Homogeneous media: core/volumes/media.py's Media table, a ray's volume stack, Beer-Lambert and media emission.
  *
- * A ray's volume stack is a count per volume material (MAX_MEDIA of them, int16, as Media.crossed keeps them): one
- * more where it went through a front face of that material's mesh, one less through a back face. What a stretch of
+ * A ray's volume stack is a count per medium (MAX_MEDIA of them, int16, as Media.crossed keeps them): per volume
+ * material, or per object where its graph reads the object's Object Info (Media.column_of, medium_column; Cycles'
+ * stack holds (object, shader) pairs): one more where it went through a front face of its mesh, one less through a
+ * back face. What a stretch of
  * the ray crosses is the world's medium plus each stacked medium as many times as the ray is in it. */
 
 /* A ray's volume stack (Media.crossed's row): a count per column of the MediaTables. */
@@ -85,11 +87,22 @@ INLINE void add_media_emission(const double *sigma_t, const double *e, double t,
     }
 }
 
-/* Media.crossed for one ray that goes through (crossing) a surface of material row `material`: into its medium
- * through a front face, out of it through a back face (never below 0); no change for a material with no medium. */
-INLINE void stack_cross(const MediaTables *media, VolumeStack *stack, int64_t material, int backfacing, int crossing)
+/* Media.column_of for one surface of material row `material` on object `object` (Scene.instances, -1: none): the
+ * column of the medium it bounds (its material's, or that object's where the material keeps media per object), or
+ * -1 where it bounds none. */
+INLINE int32_t medium_column(const MediaTables *media, int64_t material, int64_t object)
 {
-    int32_t v = media->column[material];
+    int32_t k = media->keyed[material];
+    if (k < 0) return media->column[material];
+    return object < 0 ? -1 : media->object_column[(int64_t)k * media->objects + object];
+}
+
+/* Media.crossed for one ray that goes through (crossing) surface s: into the medium it bounds (medium_column)
+ * through a front face, out of it through a back face (never below 0); no change where it bounds none. */
+INLINE void stack_cross(const MediaTables *media, VolumeStack *stack, const Surface *s, int crossing)
+{
+    int32_t v = medium_column(media, s->material, s->object);
+    int backfacing = s->backfacing;
     if (!crossing || v < 0) return;
     int next = (int)stack->count[v] + (backfacing ? -1 : 1);
     stack->count[v] = (int16_t)(next < 0 ? 0 : next);
@@ -133,13 +146,13 @@ static void camera_media(const MediaTables *media, const GeometryTables *geometr
         clear_hits(&packet);
         intersect(valid, scene, &packet, NULL);
         if (packet.hit.geomID[0] == INVALID_ID) return;
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
         hit_triangle(geometry, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
                      instance_of(&packet.hit, 0), 0, STILL_TIME, &tri);   /* (a render with media moves no object) */
         Surface s;
         surface_at(P, D, (double)packet.ray.tfar[0], (double)packet.hit.u[0], (double)packet.hit.v[0], &tri, 0, &s);
         /* b. A front face entered; a back face left if entered on the way, else a medium the ray started in. */
-        int32_t v = media->column[s.material];
+        int32_t v = medium_column(media, s.material, s.object);
         if (v >= 0) {
             if (!s.backfacing) entered.count[v]++;
             else if (entered.count[v] > 0) entered.count[v]--;

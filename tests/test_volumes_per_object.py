@@ -1,0 +1,162 @@
+"""Media kept per object (issue 35): a volume material whose graph reads the object's Object Info (Random, Color...)
+sets up one medium per object that holds it, as Cycles' volume stack holds (object, shader) pairs
+(src/kernel/integrator/volume_stack.h; shader_setup_from_volume sets sd->object from the stack entry). Held to
+closed forms in both kernels: two boxes sharing one absorbing material whose density Object Info drives let through
+exp(-sigma_t(object) d) each, homogeneous (the graph reads nothing of the point: one constant per object) and
+heterogeneous (a field that also reads the point's height); a box nested in another of the same material adds its
+own medium to the outer one's; past the compiled stack's MAX_MEDIA the Python reference renders it, said once."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.camera import Camera
+from core.geometry import primitives
+from core.materials import Material
+from core.materials.graph import GraphNode, Link
+from core.render import prepare, render
+from core.scene import RenderSettings, Scene
+from core.volumes import MAX_MEDIA
+
+COLOR = np.array([0.2, 0.5, 0.8])
+GLOW = np.array([1.0, 2.0, 0.5])
+
+
+def camera_above() -> Camera:
+    """An orthographic camera 3 above the origin looking straight down at x, y in [-1, 1]."""
+    matrix = np.eye(4)
+    matrix[2, 3] = 3.0
+    return Camera(matrix_world=matrix, type="ORTHO", ortho_scale=2.0, clip_start=0.1, clip_end=20.0)
+
+
+def object_info(output: str) -> Link:
+    """A graph: the object's Object Info `output` as one float (Color through Separate Color's Red)."""
+    info = Link(GraphNode("OBJECT_INFO", {"material_index": 0.0}), output)
+    if output == "Color":
+        return Link(GraphNode("SEPARATE_COLOR", {}, {"Color": info}), "Red")
+    return info
+
+
+def times(a, b) -> Link:
+    """A graph: a x b (Math > Multiply)."""
+    return Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": a, "1": b}), "Value")
+
+
+def height(scale: float, offset: float) -> Link:
+    """A graph: scale x (the point's object z) + offset."""
+    z = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(GraphNode("TEXCOORD"), "Object")}), "Z")
+    return Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": z, "1": scale, "2": offset}), "Value")
+
+
+def shared(density) -> Material:
+    """The volume-only absorbing material both boxes hold, its density the graph `density`."""
+    return Material(np.zeros(3), "Shared", nodes=[("TRANSPARENT", np.ones(3), {})],
+                    volume=[("ABSORPTION", 1.0, {"color": COLOR, "density": density})], volume_only=True)
+
+
+def place(scene: Scene, box, value: float, output: str) -> None:
+    """Add `box` (a mesh) holding material 1, its Object Info `output` (Random, or Color's red) set to `value`."""
+    scene.add_mesh(box, materials=np.array([1]), name=f"Box {len(scene.instances)}")
+    if output == "Random":
+        scene.instances[-1].random = value
+    else:
+        scene.instances[-1].color = (value, 0.3, 0.9, 1.0)
+
+
+def two_boxes(density, values=(0.25, 0.75), output: str = "Random") -> Scene:
+    """A glowing floor (GLOW) at z = 0 under two boxes from z = 0.5 to 1.5 side by side (x < 0 and x > 0) holding
+    one shared medium; each box's Object Info `output` the value of `values` in turn."""
+    scene = Scene(camera=camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=GLOW))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(shared(density))
+    for value, x in zip(values, (-1.0, 1.0)):
+        place(scene, primitives.box((2.0, 4.0, 1.0), center=(x, 0.0, 1.0)), value, output)
+    return scene
+
+
+def halves(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """A 4 x 4 image whose two left columns are `left` (3,) and two right ones `right`."""
+    image = np.empty((4, 4, 3))
+    image[:, :2], image[:, 2:] = left, right
+    return image
+
+
+def rendered(scene: Scene, kernels: str) -> tuple:
+    """The scene at 4 x 4, 2 samples, by the path tracer in `kernels`: (RGB (4, 4, 3), stats)."""
+    result = render(scene, RenderSettings(width=4, height=4, samples=2, integrator="path", kernels=kernels))
+    assert (result.stats.kernels == "compiled") == (kernels == "compiled"), result.stats.kernels
+    return result.image[..., :3], result.stats
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("output, scale", [("Random", 4.0), ("Color", 5.0)])
+def test_two_boxes_of_one_material_whose_density_is_their_object_info_keep_exp_of_their_own_sigma_t(
+        output, scale, kernels):
+    """Density = scale x Object Info (Random 0.25 and 0.75, or Color's red 0.2 and 0.6): sigma_t 1 and 3 x (1 -
+    colour) over the boxes' depth 1, each its own medium (Primer used to read 0 there: no medium at all); the graph
+    reads nothing of the point, so each is one constant medium (no field to march), with nothing to say."""
+    values = (0.25, 0.75) if output == "Random" else (0.2, 0.6)
+    scene = two_boxes(times(object_info(output), scale), values, output)
+    image, stats = rendered(scene, kernels)
+    expected = halves(GLOW * np.exp(-1.0 * (1.0 - COLOR)), GLOW * np.exp(-3.0 * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
+    assert not any("Shared" in w or "volume" in w for w in stats.warnings), stats.warnings
+    media = prepare(scene, RenderSettings(width=4, height=4)).extra["media"]
+    assert len(media.g) == 2 and not media.fields                  # (two constant media, one per box)
+    np.testing.assert_allclose(media.sigma_t, [1.0 * (1.0 - COLOR), 3.0 * (1.0 - COLOR)])
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_two_boxes_of_one_heterogeneous_material_scaled_by_their_random_keep_exp_of_their_own_integrals(kernels):
+    """Density = Random x 1.6 x (2 z + 0.5) from z = 0.5 to 1.5 (its integral 2.5): Random 0.25 and 0.75 give
+    optical depths 1 and 3 x (1 - colour), each box its own field (marched; a linear density is exact)."""
+    scene = two_boxes(times(times(object_info("Random"), 1.6), height(2.0, 0.5)))
+    image, stats = rendered(scene, kernels)
+    expected = halves(GLOW * np.exp(-1.0 * (1.0 - COLOR)), GLOW * np.exp(-3.0 * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
+    assert not any("Shared" in w for w in stats.warnings), stats.warnings
+    media = prepare(scene, RenderSettings(width=4, height=4)).extra["media"]
+    assert len(media.fields) == 2 and [f.random for f in media.fields] == [0.25, 0.75]
+
+
+def test_objects_whose_object_info_reads_alike_share_one_medium():
+    """Two boxes of the same Random (and Color, pass index...) are one medium: a column per distinct Object Info."""
+    scene = two_boxes(times(object_info("Random"), 4.0), values=(0.5, 0.5))
+    media = prepare(scene, RenderSettings(width=4, height=4)).extra["media"]
+    assert len(media.g) == 1
+    np.testing.assert_allclose(rendered(scene, "compiled")[0], halves(*[GLOW * np.exp(-2.0 * (1.0 - COLOR))] * 2),
+                               rtol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_box_nested_in_another_of_the_same_material_adds_its_own_medium_to_the_outer_ones(kernels):
+    """An outer box (Random 0.25: density 1) from z = 0.5 to 1.5 over the whole view, and inside its right half an
+    inner box (Random 0.75: density 3) from z = 0.75 to 1.25: the left keeps exp(-1 (1 - colour)), the right
+    exp(-(1 + 3 x 0.5) (1 - colour)): leaving the inner box's medium leaves the outer one's on the stack (one medium
+    per material would have counted the same column twice at one density)."""
+    scene = Scene(camera=camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=GLOW))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(shared(times(object_info("Random"), 4.0)))
+    place(scene, primitives.box((4.0, 4.0, 1.0), center=(0.0, 0.0, 1.0)), 0.25, "Random")
+    place(scene, primitives.box((2.0, 3.0, 0.5), center=(1.0, 0.0, 1.0)), 0.75, "Random")
+    image, _ = rendered(scene, kernels)
+    expected = halves(GLOW * np.exp(-1.0 * (1.0 - COLOR)), GLOW * np.exp(-2.5 * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
+
+
+def test_more_objects_media_than_the_compiled_stack_holds_render_through_the_reference_and_say_so_once():
+    """MAX_MEDIA boxes of distinct Random sharing one such material fit the compiled volume stack; one more takes
+    the Python reference, which keeps them all, with one warning that says why."""
+    scene = two_boxes(times(object_info("Random"), 4.0), values=())
+    settings = RenderSettings(width=4, height=4, samples=1, integrator="path")
+    for k in range(int(MAX_MEDIA) + 1):
+        if k == int(MAX_MEDIA):
+            result = render(scene, settings)
+            assert result.stats.kernels == "compiled" and not result.stats.warnings, result.stats
+        place(scene, primitives.box((0.1, 0.1, 0.1), center=(0.2 * k - 1.6, 0.9, 0.5)), 0.01 * (k + 1), "Random")
+    result = render(scene, settings)
+    assert "volume stack" in result.stats.kernels
+    notes = [w for w in result.stats.warnings if "volumes" in w]
+    assert len(notes) == 1 and "kept per object" in notes[0], notes
