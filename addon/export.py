@@ -1691,9 +1691,11 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             if made is not None:
                 core.meshes.append(made[0])
                 instance_keys[len(core.instances)] = motion.placement_key(instance)
-                core.instances.append(core_scene.Instance(len(core.meshes) - 1, matrix, made[1], obj.name, None,
+                random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
+                core.instances.append(core_scene.Instance(len(core.meshes) - 1, matrix, made[1], obj.name, random,
                                                           int(getattr(obj, "pass_index", 0)), **instance_keywords(obj),
-                                                          asset=topmost_parent(obj).name, **links.of_object(obj)))
+                                                          asset=topmost_parent(obj).name, color=tuple(obj.color),
+                                                          **links.of_object(obj)))
                 groups["instances"].append(lightgroups.source_group(obj))
             continue
         if obj.type in UNSUPPORTED_GEOMETRY:
