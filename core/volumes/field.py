@@ -265,18 +265,30 @@ class Field:
             weights[:, k] = share
         return kinds, parameters, weights
 
-    def closures(self, P: np.ndarray):
+    def placed(self, info: np.ndarray, random: float, bounds) -> "Field":
+        """This medium held by another object (media.per_object): a copy (its program shared) whose graph reads the
+        Object Info row `info` (W,) and `random`, marched in `bounds` (low (3,), high (3,)) with its own step."""
+        import copy
+        made = copy.copy(self)
+        made.info, made.random = np.asarray(info, np.float64), float(random)
+        made.low, made.high = (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64))
+        made.step = max(float(np.linalg.norm(made.high - made.low)), 1e-6) / STEPS_ACROSS
+        return made
+
+    def closures(self, P: np.ndarray, info=None, random=None):
         """Each closure k's coefficients at camera-relative points P (n, 3) float64: (k, Sample (after its linked
         Mix Shader factors), its inputs there {key: (n, width) float64}, and "factor" (n,) the product of its linked
-        Mix Shader factors where it has some) in turn."""
+        Mix Shader factors where it has some) in turn. info (n, W), random (n,): each point's Object Info, where not
+        the medium's own (Field.info, random)."""
         from ..materials import graph as graph_
         n = len(P)
         width = 6 + GRID_WIDTH * len(self.grids)
         point = graph_.empty_point(n, width)._replace(attributes=self.coordinates(P), P=P + self.origin,
                                                   path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]),
                                                   linear=np.broadcast_to(self.linear, (n, 3, 3)),
-                                                  info=np.broadcast_to(self.info, (n, len(self.info))),
-                                                  random=np.full(n, self.random))
+                                                  info=np.broadcast_to(self.info, (n, len(self.info)))
+                                                  if info is None else info,
+                                                  random=np.full(n, self.random) if random is None else random)
         registers = graph_.run(self.program, point, self.textures)
         found, factors = {}, {}
         for kind, node, slot, width, register in self.program.outputs.astype(np.int64):

@@ -638,14 +638,12 @@ def shadow_visibility(geometry, volume_rows: list) -> tuple:
     return hidden & wanted, seen & wanted
 
 
-def material_bounds(geometry, row: int, owners=None) -> tuple:
-    """The camera-relative box (low (3,), high (3,) float64) of the triangles of material `row` (on the objects
-    `owners`, Scene.instances entries, where given); the whole scene's box where none has it."""
+def material_bounds(geometry, row: int) -> tuple:
+    """The camera-relative box (low (3,), high (3,) float64) of the triangles of material `row`; the whole scene's
+    box where none has it."""
     low, high = np.full(3, np.inf), np.full(3, -np.inf)
-    for prims, triangles in triangle_chunks(geometry):
+    for _, triangles in triangle_chunks(geometry):
         mine = triangles.material == row
-        if owners is not None and mine.any():
-            mine &= np.isin(geometry.owners(prims), np.asarray(owners, np.int64))
         if mine.any():
             corners = triangles.corners[mine].reshape(-1, 3)
             low, high = np.minimum(low, corners.min(axis=0)), np.maximum(high, corners.max(axis=0))
@@ -688,42 +686,46 @@ def per_object(entries: list, space, geometry, row: int) -> list:
     Info (reads_object), on the objects of `geometry` that hold its triangles: [(owners (j,) int64, Coefficients,
     Field or None)], one per group of objects whose Object Info row and Random are alike (a column of Media each).
     A graph of POINTLESS_NODES alone is one homogeneous medium per group: its closures' inputs read at one point
-    with that Object Info (Field.closures), then medium_of (as a constant graph); any other is a Field per group
-    (marched), reading that Object Info and bounded by the group's triangles. space: the material's volume_space."""
+    with that Object Info (Field.closures, every group's at once), then medium_of (as a constant graph); any other
+    is a Field per group (marched; its program compiled once, Field.placed), reading that Object Info and bounded by
+    the group's triangles. space: the material's volume_space."""
     from . import field as field_
-    owners = set()
-    for prims, triangles in triangle_chunks(geometry):
-        mine = triangles.material == row
-        if mine.any():
-            owners.update(geometry.owners(prims[mine]).tolist())
-    owners.discard(-1)
-    info = geometry.instance_info
-    groups: dict = {}
-    for owner in sorted(owners):
-        key = (tuple(info[owner]) if len(info) else (), float(geometry.instance_random[owner])
-               if len(geometry.instance_random) else 0.0)
-        groups.setdefault(key, []).append(owner)
-    constant = all(link.node.kind in POINTLESS_NODES for link in _links(entries))
-    made = []
-    for (row_info, random), group in groups.items():
-        owned = np.array(group, np.int64)
-        bounds = None if constant else material_bounds(geometry, row, owned)
-        field = field_.Field(entries, space, geometry.origin, bounds, info=np.array(row_info, np.float64)
-                             if row_info else None, random=random)
-        if not constant:
-            made.append((owned, NOTHING, field))
-            continue
-        fixed = []
-        for k, _, values in field.closures(np.zeros((1, 3))):
-            name, weight, inputs = entries[k]
+    objects = len(geometry.instance_random)
+    low, high = np.full((objects, 3), np.inf), np.full((objects, 3), -np.inf)
+    for prims, triangles in triangle_chunks(geometry):         # (one pass: each object's box of these triangles)
+        mine = np.flatnonzero(triangles.material == row)
+        if len(mine):
+            owner = np.repeat(geometry.owners(prims[mine]), 3)
+            corners = triangles.corners[mine].reshape(-1, 3)
+            keep = owner >= 0
+            np.minimum.at(low, owner[keep], corners[keep])
+            np.maximum.at(high, owner[keep], corners[keep])
+    owners = np.flatnonzero(np.isfinite(low[:, 0]))
+    if len(owners) == 0:
+        return []
+    info = geometry.instance_info[owners] if len(geometry.instance_info) else np.zeros((len(owners), 8))
+    random = geometry.instance_random[owners]
+    keys = np.concatenate([info, random[:, None]], axis=1)
+    _, first, group = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    group = np.asarray(group).reshape(-1)
+    order = np.argsort(first)                          # (the groups in the order of their first object)
+    field = field_.Field(entries, space, geometry.origin, None, info=info[0], random=float(random[0]))
+    if not all(link.node.kind in POINTLESS_NODES for link in _links(entries)):
+        return [(owners[group == g], NOTHING,
+                 field.placed(info[first[g]], float(random[first[g]]),
+                              (low[owners[group == g]].min(axis=0), high[owners[group == g]].max(axis=0))))
+                for g in order]
+    fixed = [[] for _ in order]                        # (each group's closures, their linked inputs read there)
+    for k, _, values in field.closures(np.zeros((len(order), 3)), info[first[order]], random[first[order]]):
+        name, weight, inputs = entries[k]
+        for j in range(len(order)):
             given = {key: value for key, value in inputs.items() if key not in field.slots[k] and key != "factors"}
             for key in field.slots[k]:                  # (the linked inputs, as the constants they are here)
-                value = np.asarray(values[key][0], np.float64)
+                value = np.asarray(values[key][j], np.float64)
                 given[key] = float(value[0]) if len(value) == 1 else value
-            factor = float(np.asarray(values["factor"]).reshape(-1)[0]) if "factor" in values else 1.0
-            fixed.append((name, float(weight) * factor, given))
-        made.append((owned, medium_of(fixed), None))
-    return made
+            factor = float(np.asarray(values["factor"]).reshape(-1)[j]) if "factor" in values else 1.0
+            fixed[j].append((name, float(weight) * factor, given))
+    return [(owners[group == g], medium_of(fixed[j]), None) for j, g in enumerate(order)]
 
 
 # Cycles' box of the world's medium: +-WORLD_REACH around the world's origin on each axis (scene/volume.cpp: "World
