@@ -398,7 +398,7 @@
 #define GRID_WIDTH 4
 /* Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission) (core.volumes.media) */
 #define STEFAN_BOLTZMANN 1.8049357842496396e-14
-/* the most media (columns) the compiled kernel's volume stack holds (core.volumes.media) */
+/* the most media a ray is in at once in the compiled volume stack (core.volumes.media) */
 #define MAX_MEDIA 16
 /* a medium's phase function (core/volumes/phase.py) (core.volumes.phase) */
 #define PHASE_HENYEY_GREENSTEIN 0
@@ -1320,7 +1320,7 @@ struct VolumeField {
 
 /* The render's homogeneous media (core/volumes/media.py Media.tables), for media.c. */
 struct MediaTables {
-    int64_t count;                          /* V: the volume materials (columns), at most MAX_MEDIA */
+    int64_t count;                          /* V: the media (columns: per volume material, or per object: Media.column_of) */
     const double *sigma_t;                  /* (V, 3) each column's extinction sigma_a + sigma_s */
     const double *emission;                 /* (V, 3) each column's emission per unit length */
     const double *sigma_s;                  /* (V, 3) each column's scattering coefficient */

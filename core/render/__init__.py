@@ -543,9 +543,10 @@ def _usable_cores() -> int:
 def volume_reason(ctx: Context, warnings: list) -> str:
     """Why a scene with media takes the Python reference ('' where the compiled kernel renders it, and without media).
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
-    Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c); more volume materials than
-    its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
-    no media, and that the media's light goes to Combined only, not to the light groups."""
+    Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c), any number of them (its
+    volume stack is sparse); that a ray is in at most MAX_MEDIA of them at once there is said once in `warnings` where
+    a scene has more, and so is that Whitted's tracer renders no media, and that the media's light goes to Combined
+    only, not to the light groups."""
     media = ctx.extra.get("media")
     if media is None:
         return ""
@@ -568,19 +569,17 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                    "corrects the march by ratio tracking)" if media.heterogeneous else ""))
         if note not in warnings:
             warnings.append(note)
-    if len(media.g) <= volumes.MAX_MEDIA:
-        return ""
-    # (a material whose volume reads Object Info keeps a medium per object, or per group of objects that read alike:
-    # media.Media.of; each counts)
-    kept = int((media.keyed >= 0).sum())
-    reason = (f"more than {int(volumes.MAX_MEDIA)} media ({len(media.g)}"
-              + (f", of which {len(media.g) - int((media.column >= 0).sum())} kept per object for "
-                 f"{kept} material{'s' if kept > 1 else ''} whose volume reads Object Info" if kept else "")
-              + "), the compiled kernel's volume stack")
-    note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
-    if note not in warnings:
-        warnings.append(note)
-    return reason
+    if len(media.g) > volumes.MAX_MEDIA:
+        # (the compiled stack is sparse, as Cycles': any number of media, MAX_MEDIA of them at once along a ray)
+        kept = int((media.keyed >= 0).sum())
+        note = (f"volumes: {len(media.g)} media"
+                + (f" ({len(media.g) - int((media.column >= 0).sum())} of them kept per object for {kept} "
+                   f"material{'s' if kept > 1 else ''} whose volume reads Object Info)" if kept else "")
+                + f"; a ray is in at most {int(volumes.MAX_MEDIA)} at once in the compiled kernel's volume stack and "
+                  "leaves a further one out (Cycles: 30)")
+        if note not in warnings:
+            warnings.append(note)
+    return ""
 
 
 def object_blur_reason(scene: Scene, settings: RenderSettings) -> str:

@@ -267,7 +267,7 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
  * (column -1: every ray, Media.along). */
 INLINE double field_count(const VolumeField *f, const VolumeStack *stack)
 {
-    return f->column < 0 ? 1.0 : (double)stack->count[f->column];
+    return f->column < 0 ? 1.0 : (double)stack_count(stack, f->column);
 }
 
 /* Whether a ray with the volume stack `stack` is in a heterogeneous medium (Stretch.varying). */

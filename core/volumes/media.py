@@ -469,12 +469,14 @@ class Media:
         return inside
 
 
-# The most media (columns: volume materials, and the media of one kept per object) a render's compiled kernel keeps a
-# stack of per ray (core/volumes/media.c): a scene with more renders through the Python reference.
-MAX_MEDIA = schema.constant("MAX_MEDIA", 16, "the most media (columns) the compiled kernel's volume stack holds")
+# The most media (columns: volume materials, and the media of one kept per object) a ray is in at once in the compiled
+# kernel's volume stack (core/volumes/media.c, sparse: a render may have any number of media); one more it enters
+# is left out, as Cycles leaves out what its stack (30 objects' media) has no room for. The Python reference's stacks
+# (Media.crossed, dense) have room for all.
+MAX_MEDIA = schema.constant("MAX_MEDIA", 16, "the most media a ray is in at once in the compiled volume stack")
 
 MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media (core/volumes/media.py Media.tables), for media.c.", [
-    ("count", I64, "V: the volume materials (columns), at most MAX_MEDIA"),
+    ("count", I64, "V: the media (columns: per volume material, or per object: Media.column_of)"),
     ("sigma_t", ptr(F64), "(V, 3) each column's extinction sigma_a + sigma_s"),
     ("emission", ptr(F64), "(V, 3) each column's emission per unit length"),
     ("sigma_s", ptr(F64), "(V, 3) each column's scattering coefficient"),
