@@ -20,8 +20,9 @@ sigma_a, sigma_s and emission sum; the phase functions mix by their scattering, 
 phase function (`Coefficients.__add__`), and g keeps the sigma_s-weighted mean cosine. A ray in overlapping media
 scatters the same way (`Media.along`, media.c medium_scattering).
 
-`Media` is one table per render: a column per material with a volume, the world's medium, and which materials are
-volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME). A material
+`Media` is one table per render: a column per material with a volume (per object that holds it where its volume
+graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs: `per_object`), the
+world's medium, and which materials are volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME). A material
 whose closures have inputs fed by links is a heterogeneous medium (field.py Field): its column's constant
 coefficients are zero and its rays are marched (`Stretch.march`), the march the proposal whose estimates ratio
 tracking and control variates make unbiased (`Stretch.transmittance`, `emitted`: field.March).
