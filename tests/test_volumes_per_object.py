@@ -3,7 +3,7 @@ sets up one medium per object that holds it, as Cycles' volume stack holds (obje
 (src/kernel/integrator/volume_stack.h; shader_setup_from_volume sets sd->object from the stack entry). Held to
 closed forms in both kernels: two boxes sharing one absorbing material whose density Object Info drives let through
 exp(-sigma_t(object) d) each, homogeneous (the graph reads nothing of the point: one constant per object) and
-heterogeneous (a field that also reads the point's height); a box nested in another of the same material adds its
+heterogeneous (a field that also reads the point's height, in each object's own coordinates); a box nested in another of the same material adds its
 own medium to the outer one's; more media than a ray is in at once in the compiled stack (MAX_MEDIA) still render
 compiled, said once."""
 from __future__ import annotations
@@ -17,6 +17,7 @@ from core.materials import Material
 from core.materials.graph import GraphNode, Link
 from core.render import prepare, render
 from core.scene import RenderSettings, Scene
+from core.scene.scene import Instance
 from core.volumes import MAX_MEDIA
 
 COLOR = np.array([0.2, 0.5, 0.8])
@@ -186,3 +187,25 @@ def test_a_ray_in_more_media_at_once_than_the_compiled_stack_holds_leaves_the_in
     # (rtol 2e-4: the ray steps off each of its 34 surfaces by their robust offset, shortening the depths a little;
     # the innermost medium left out is 30 % of the light)
     np.testing.assert_allclose(middle, np.broadcast_to(GLOW * np.exp(-tau * (1.0 - COLOR)), middle.shape), rtol=2e-4)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_field_kept_per_object_reads_each_objects_own_object_coordinates(kernels):
+    """The same box mesh placed twice by matrices (at x = -1 and, lifted by 0.25, at x = 1: z from 0.75 to 1.75)
+    with density Random x 1.6 x (2 z_object + 1.5), z_object from -0.5 to 0.5 in each (its integral 1.5): each box
+    keeps exp(-1.6 Random 1.5 (1 - colour)) whatever its height, as Cycles reads each object's own coordinates (the
+    world's z would give the lifted box 1.6 Random 2.0)."""
+    scene = Scene(camera=camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=GLOW))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(shared(times(times(object_info("Random"), 1.6), height(2.0, 1.5))))
+    mesh = primitives.box((2.0, 4.0, 1.0))
+    for x, z, value in ((-1.0, 1.0, 0.25), (1.0, 1.25, 0.75)):
+        matrix = np.eye(4)
+        matrix[:3, 3] = (x, 0.0, z)
+        scene.meshes.append(mesh)
+        scene.instances.append(Instance(len(scene.meshes) - 1, matrix, np.array([1]), f"Box {x}"))
+        scene.instances[-1].random = value
+    image, _ = rendered(scene, kernels)
+    expected = halves(GLOW * np.exp(-1.6 * 0.25 * 1.5 * (1.0 - COLOR)), GLOW * np.exp(-1.6 * 0.75 * 1.5 * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)

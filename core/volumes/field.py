@@ -265,12 +265,18 @@ class Field:
             weights[:, k] = share
         return kinds, parameters, weights
 
-    def placed(self, info: np.ndarray, random: float, bounds) -> "Field":
+    def placed(self, info: np.ndarray, random: float, bounds, to_object=None) -> "Field":
         """This medium held by another object (media.per_object): a copy (its program shared) whose graph reads the
-        Object Info row `info` (W,) and `random`, marched in `bounds` (low (3,), high (3,)) with its own step."""
+        Object Info row `info` (W,) and `random`, marched in `bounds` (low (3,), high (3,)) with its own step; with
+        `to_object` (3, 4) that object's world-to-object matrix, its Object coordinates (and Generated, in the same
+        texture space) and object transform that object's."""
         import copy
         made = copy.copy(self)
         made.info, made.random = np.asarray(info, np.float64), float(random)
+        if to_object is not None:
+            made.matrix = np.asarray(to_object, np.float64).reshape(3, 4)
+            placed = np.linalg.inv(np.vstack([made.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]
+            made.linear, made.placement = placed[:, :3], placed[:, 3]
         made.low, made.high = (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64))
         made.step = max(float(np.linalg.norm(made.high - made.low)), 1e-6) / STEPS_ACROSS
         return made

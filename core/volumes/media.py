@@ -690,8 +690,9 @@ def per_object(entries: list, space, geometry, row: int) -> list:
     Field or None)], one per group of objects whose Object Info row and Random are alike (a column of Media each).
     A graph of POINTLESS_NODES alone is one homogeneous medium per group: its closures' inputs read at one point
     with that Object Info (Field.closures, every group's at once), then medium_of (as a constant graph); any other
-    is a Field per group (marched; its program compiled once, Field.placed), reading that Object Info and bounded by
-    the group's triangles. space: the material's volume_space."""
+    is a Field per group (marched; its program compiled once, Field.placed), reading that Object Info, its Object
+    coordinates in that object's space (objects that read alike but are placed differently are groups apart), and
+    bounded by the group's triangles. space: the material's volume_space (its texture space and grids)."""
     from . import field as field_
     objects = len(geometry.instance_random)
     low, high = np.full((objects, 3), np.inf), np.full((objects, 3), -np.inf)
@@ -708,15 +709,24 @@ def per_object(entries: list, space, geometry, row: int) -> list:
         return []
     info = geometry.instance_info[owners] if len(geometry.instance_info) else np.zeros((len(owners), 8))
     random = geometry.instance_random[owners]
-    keys = np.concatenate([info, random[:, None]], axis=1)
+    constant = all(link.node.kind in POINTLESS_NODES for link in _links(entries))
+    # Each object's world-to-object matrix (its linear part and Location: a field's Object coordinates are its own).
+    linear = (geometry.instance_linear[owners] if len(geometry.instance_linear)
+              else np.broadcast_to(np.eye(3), (len(owners), 3, 3)))
+    flat = ~(np.abs(np.linalg.det(linear)) > 1e-300)      # (a flattened object: its own space has no inverse)
+    placement = np.concatenate([np.where(flat[:, None, None], np.eye(3), linear), info[:, :3, None]], axis=2)
+    to_object = np.linalg.inv(np.concatenate([placement, np.broadcast_to([[[0.0, 0.0, 0.0, 1.0]]],
+                                                                          (len(owners), 1, 4))], axis=1))[:, :3]
+    keys = np.concatenate([info, random[:, None]] + ([] if constant else [linear.reshape(-1, 9)]), axis=1)
     _, first, group = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     group = np.asarray(group).reshape(-1)
     order = np.argsort(first)                          # (the groups in the order of their first object)
     field = field_.Field(entries, space, geometry.origin, None, info=info[0], random=float(random[0]))
-    if not all(link.node.kind in POINTLESS_NODES for link in _links(entries)):
+    if not constant:
         return [(owners[group == g], NOTHING,
                  field.placed(info[first[g]], float(random[first[g]]),
-                              (low[owners[group == g]].min(axis=0), high[owners[group == g]].max(axis=0))))
+                              (low[owners[group == g]].min(axis=0), high[owners[group == g]].max(axis=0)),
+                              to_object[first[g]]))
                 for g in order]
     fixed = [[] for _ in order]                        # (each group's closures, their linked inputs read there)
     for k, _, values in field.closures(np.zeros((len(order), 3)), info[first[order]], random[first[order]]):
