@@ -24,8 +24,9 @@ scatters the same way (`Media.along`, media.c medium_scattering).
 graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs: `per_object`), the
 world's medium, and which materials are volume-only boundaries (a Volume and no Surface: rays pass through them,
 as Cycles' SD_HAS_ONLY_VOLUME). A material whose closures have inputs fed by links is a heterogeneous medium
-(field.py Field): its column's constant coefficients are zero and its rays are marched (`Stretch.march`), the march the proposal whose estimates ratio
-tracking and control variates make unbiased (`Stretch.transmittance`, `emitted`: field.March).
+(field.py Field): its column's constant coefficients are zero and its rays are marched (`Stretch.march`), the
+march the proposal whose estimates ratio tracking and control variates make unbiased (`Stretch.transmittance`,
+`emitted`: field.March).
 """
 from __future__ import annotations
 
