@@ -265,9 +265,10 @@ class Field:
             weights[:, k] = share
         return kinds, parameters, weights
 
-    def placed(self, info: np.ndarray, random: float, bounds, to_object=None) -> "Field":
+    def placed(self, info: np.ndarray, random: float, bounds, to_object=None, step=None) -> "Field":
         """This medium held by another object (media.per_object): a copy (its program shared) whose graph reads the
-        Object Info row `info` (W,) and `random`, marched in `bounds` (low (3,), high (3,)) with its own step; with
+        Object Info row `info` (W,) and `random`, marched in `bounds` (low (3,), high (3,)) in pieces of at most
+        `step` (None: its box's diagonal / STEPS_ACROSS); with
         `to_object` (3, 4) that object's world-to-object matrix, its Object coordinates (and Generated, in the same
         texture space) and object transform that object's."""
         import copy
@@ -278,7 +279,8 @@ class Field:
             placed = np.linalg.inv(np.vstack([made.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]
             made.linear, made.placement = placed[:, :3], placed[:, 3]
         made.low, made.high = (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64))
-        made.step = max(float(np.linalg.norm(made.high - made.low)), 1e-6) / STEPS_ACROSS
+        made.step = (max(float(np.linalg.norm(made.high - made.low)), 1e-6) / STEPS_ACROSS if step is None
+                     else float(step))
         return made
 
     def closures(self, P: np.ndarray, info=None, random=None):
@@ -806,20 +808,25 @@ def inputs_table(field: "Field") -> tuple:
     return kinds, weights, table, np.array(factors, np.float64).reshape(-1, 3)
 
 
-def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRecord":
+def field_record(field: "Field", column: int, following=None, shared=None) -> "VolumeFieldRecord":
     """The C record (VolumeField) of a Field whose media column is `column`, followed by the record `following`
-    (None: the last). The record keeps its arrays alive."""
+    (None: the last). The record keeps its arrays alive. shared: a dict in which the fields of one program (a medium
+    kept per object: Field.placed) share their program's tables, closures and grids (one record of each), or None."""
     from ..materials import graph as graph_
     c = np.ascontiguousarray
-    kinds, weights, table, factors = inputs_table(field)
+    shared = {} if shared is None else shared
+    key = (id(field.program), id(field.textures), id(field.grids))
+    if key not in shared:
+        kinds, weights, table, factors = inputs_table(field)
+        shared[key] = dict(
+            graph=graph_.program_tables([field.program], field.textures), closures=len(kinds),
+            scatters=int(field.scatters), emits=int(field.emits), kinds=c(kinds), weights=c(weights),
+            inputs=c(table.reshape(-1)), factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)),
+            factor_count=len(factors), phases=c(field.phases), hot=c(field.hot), **grid_tables(field.grids))
     return VolumeFieldRecord(
-        graph=graph_.program_tables([field.program], field.textures), next=following, column=int(column),
-        closures=len(kinds), scatters=int(field.scatters), emits=int(field.emits), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
-        factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
-        matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
-        linear=field.linear.reshape(-1), placement=field.placement, phases=c(field.phases), hot=c(field.hot),
-        info=c(field.info, np.float64), info_width=len(field.info), random=float(field.random),
-        **grid_tables(field.grids))
+        next=following, column=int(column), matrix=field.matrix.reshape(-1), location=field.location,
+        size=field.size, origin=field.origin, linear=field.linear.reshape(-1), placement=field.placement,
+        info=c(field.info, np.float64), info_width=len(field.info), random=float(field.random), **shared[key])
 
 
 # The columns of a grid's row in VolumeField.grid_table: where its values start in `voxels`, X, Y, Z, C, lower (3),

@@ -406,9 +406,9 @@ class Media:
         from . import field as field_
         if not self.fields:
             return dict(fields=None, field_low=np.zeros(3), field_high=np.zeros(3), field_step=1.0)
-        chain = None
+        chain, shared = None, {}                # (the fields of one program share its tables: per_object)
         for field, column in reversed(list(zip(self.fields, self.field_columns))):
-            chain = field_.field_record(field, int(column), chain)
+            chain = field_.field_record(field, int(column), chain, shared)
         return dict(fields=chain, field_low=np.min([f.low for f in self.fields], axis=0),
                     field_high=np.max([f.high for f in self.fields], axis=0),
                     field_step=min(f.step for f in self.fields))
@@ -724,10 +724,13 @@ def per_object(entries: list, space, geometry, row: int) -> list:
     order = np.argsort(first)                          # (the groups in the order of their first object)
     field = field_.Field(entries, space, geometry.origin, None, info=info[0], random=float(random[0]))
     if not constant:
+        # (each object's field in its own box, marched in pieces as the material's one field would be: the box of all
+        # these objects' triangles / STEPS_ACROSS, not each small box's, which would cut every ray finer)
+        step = max(float(np.linalg.norm(high[owners].max(axis=0) - low[owners].min(axis=0))), 1e-6) / field_.STEPS_ACROSS
         return [(owners[group == g], NOTHING,
                  field.placed(info[first[g]], float(random[first[g]]),
                               (low[owners[group == g]].min(axis=0), high[owners[group == g]].max(axis=0)),
-                              to_object[first[g]]))
+                              to_object[first[g]], step))
                 for g in order]
     fixed = [[] for _ in order]                        # (each group's closures, their linked inputs read there)
     for k, _, values in field.closures(np.zeros((len(order), 3)), info[first[order]], random[first[order]]):
