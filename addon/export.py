@@ -952,8 +952,11 @@ def note_volume_space(obj, matrix: np.ndarray, slots: np.ndarray, materials: lis
     """Keep in `spaces` (material index -> Material.volume_space) the object space of each heterogeneous medium
     (a volume input fed by a link) among the materials `slots` (k,) of object `obj` placed by `matrix` (4, 4): its
     graph reads the points' Object and Generated coordinates there. One space per material: a second object of
-    another placement holding the same one is warned of (Primer reads its medium in the first one's space)."""
+    another placement holding the same one is warned of (Primer reads its medium in the first one's space), unless
+    the graph reads Object Info (a medium per object, each in its own placement: core/volumes/media.py per_object),
+    where only another texture space is."""
     from ..core.volumes import field as field_
+    from ..core.volumes import media as media_
     for slot in sorted(set(slots[slots >= 0].tolist())):
         volume = materials[slot].volume
         if not volume or not field_.linked(volume):
@@ -963,9 +966,11 @@ def note_volume_space(obj, matrix: np.ndarray, slots: np.ndarray, materials: lis
         location = np.array(getattr(data, "texspace_location", (0.0, 0.0, 0.0)), np.float64)
         size = np.array(getattr(data, "texspace_size", (1.0, 1.0, 1.0)), np.float64)
         space = (inverse, location, size)
+        # (a medium kept per object reads its own placement; its texture space is still the first object's)
+        differs = [not np.allclose(a, b) for a, b in zip(spaces.get(slot, space), space)]
         if slot not in spaces:
             spaces[slot] = space
-        elif not all(np.allclose(a, b) for a, b in zip(spaces[slot], space)):
+        elif any(differs[1:] if media_.reads_object(volume) else differs):
             note = (f"material '{materials[slot].name}': its heterogeneous volume is held by objects of different "
                     f"placements or texture spaces; Primer reads its coordinates in the first object's, also in "
                     f"'{obj.name}'")
@@ -1691,9 +1696,11 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             if made is not None:
                 core.meshes.append(made[0])
                 instance_keys[len(core.instances)] = motion.placement_key(instance)
-                core.instances.append(core_scene.Instance(len(core.meshes) - 1, matrix, made[1], obj.name, None,
+                random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
+                core.instances.append(core_scene.Instance(len(core.meshes) - 1, matrix, made[1], obj.name, random,
                                                           int(getattr(obj, "pass_index", 0)), **instance_keywords(obj),
-                                                          asset=topmost_parent(obj).name, **links.of_object(obj)))
+                                                          asset=topmost_parent(obj).name, color=tuple(obj.color),
+                                                          **links.of_object(obj)))
                 groups["instances"].append(lightgroups.source_group(obj))
             continue
         if obj.type in UNSUPPORTED_GEOMETRY:

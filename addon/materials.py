@@ -1745,10 +1745,14 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
              for name, weight, inputs in entries]
     # (Point Info reads 0 inside a medium in Cycles too: no point is hit there.)
     # (An Attribute node's name reads a Volume object's grid; in a mesh's medium it reads 0 as in Cycles, unsaid.)
+    # (A material's Object Info: each object that holds it keeps a medium of its own, core/volumes/media.py
+    # per_object, as Cycles' volume stack holds (object, shader) pairs; Material Index is the material's constant. A
+    # world's medium has no object: its Object Info reads 0 in Cycles too.)
     unread = sorted(({n for n in graph_.attributes_of(nodes) if not n.startswith(("point_", "attr:"))}
                      - {"generated", "object"})
                     | {f"Object Info's {link.output}" for link in graph_.links_under(nodes)
-                       if link.node.kind == "OBJECT_INFO" and link.output != "Location"})
+                       if link.node.kind == "OBJECT_INFO" and link.output not in ("Location", "Material Index")
+                       and kind != "material"})
     if unread:
         warnings.append(f"{kind} '{datablock.name}': its volume reads {', '.join(unread)}, which points inside a "
                         "medium do not carry in Primer (they read 0)")

@@ -106,6 +106,45 @@ def test_absorbing_cubes_in_front_of_an_emitter_let_through_exp_of_minus_sigma_d
     np.testing.assert_allclose(cycles, expected, rtol=1e-5)
 
 
+def test_two_cubes_sharing_a_medium_driven_by_object_info_absorb_each_by_its_own_as_in_cycles(primer, tmp_path):
+    """Two cubes 0.8 thick sharing one volume-only Volume Absorption whose Density is 5 x Object Info Color's red
+    + 2 x Object Info Random (Color 0.2 and 0.6, Random Cycles' hash of each name): each pixel behind cube k is the
+    plane's emission x exp(-density_k (1 - colour) 0.8), in Primer (a medium per object, issue 35: Cycles' volume
+    stack holds (object, shader) pairs) and in Cycles, to float32 rounding; nothing said of Object Info."""
+    from importlib import import_module
+    graph = import_module(primer.__name__ + ".core.materials.graph")
+    scene = ortho_scene(16, 8, 4.0)
+    glow = np.array([1.0, 0.8, 0.5])
+    bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
+    bpy.context.object.data.materials.append(emitting_material("Glow", glow))
+    color, depth = (0.3, 0.6, 0.9), 0.8
+    fog, node = volume_material("Shared", "ShaderNodeVolumeAbsorption", Color=color)
+    tree = fog.node_tree
+    info, red = tree.nodes.new("ShaderNodeObjectInfo"), tree.nodes.new("ShaderNodeSeparateColor")
+    first, second = tree.nodes.new("ShaderNodeMath"), tree.nodes.new("ShaderNodeMath")
+    first.operation, second.operation = "MULTIPLY", "MULTIPLY_ADD"
+    tree.links.new(info.outputs["Color"], red.inputs["Color"])
+    tree.links.new(red.outputs["Red"], first.inputs[0])
+    first.inputs[1].default_value = 5.0
+    tree.links.new(info.outputs["Random"], second.inputs[0])
+    second.inputs[1].default_value = 2.0
+    tree.links.new(first.outputs[0], second.inputs[2])
+    tree.links.new(second.outputs[0], node.inputs["Density"])
+    densities = []
+    for name, x, red_value in (("Left", -1.0, 0.2), ("Right", 1.0, 0.6)):
+        box(name, (x, 0.0, 1.5), (1.0, 1.0, depth), fog).color = (red_value, 0.5, 0.5, 1.0)
+        densities.append(5.0 * red_value + 2.0 * graph.object_random(name))
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
+    stats = addon(primer, "engine").last_render.stats
+    assert stats.kernels == "compiled" and not any("Object Info" in w for w in stats.warnings), stats.warnings
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16, True)[..., :3]
+    expected = np.broadcast_to(glow, mine.shape).copy()
+    for density, columns in zip(densities, (slice(2, 6), slice(10, 14))):
+        expected[2:6, columns] = glow * np.exp(-density * (1.0 - np.array(color)) * depth)
+    np.testing.assert_allclose(mine, expected, rtol=1e-5)
+    np.testing.assert_allclose(cycles, expected, rtol=1e-5)
+
+
 def relative_mse(primer_image, cycles_image) -> float:
     """The project's error measure (core/film/compare.py): relative MSE of 4 x 4 block means."""
     from importlib import import_module

@@ -237,3 +237,34 @@ def test_a_medium_on_objects_of_different_groups_emits_into_the_first_ones_and_s
     assert any("'Glow' is on objects in different light groups" in note for note in result.stats.warnings)
     np.testing.assert_allclose(sum(group(result, name) for name in "ABF"), result.image[..., :3], rtol=1e-5,
                                atol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_medium_kept_per_object_emits_into_each_objects_own_group(kernels):
+    """Two boxes side by side, 1 m tall, sharing a medium that emits e x Object Info's Random per metre (so it is kept
+    per object, core/volumes/media.py per_object), in groups F (left, Random 0.25) and G (right, 0.75), seen
+    straight down over a black floor: F holds 0.25 e on the left and nothing on the right, G 0.75 e on the right and
+    nothing on the left, as Cycles gives each object's stretch to its own group."""
+    from core.camera import Camera
+    from core.materials.graph import GraphNode, Link
+    e = np.array([0.4, 0.2, 0.1])
+    matrix = np.eye(4)
+    matrix[2, 3] = 3.0
+    scene = Scene(camera=Camera(matrix_world=matrix, type="ORTHO", ortho_scale=2.0, clip_start=0.1, clip_end=20.0))
+    scene.materials.append(Material(np.zeros(3), "Black"))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]), name="Floor")
+    random = Link(GraphNode("OBJECT_INFO", {"material_index": 0.0}), "Random")
+    scene.materials.append(volume_only("Glow", "EMISSION", color=e, strength=random))
+    for name, value, x in (("Left", 0.25, -1.0), ("Right", 0.75, 1.0)):
+        scene.add_mesh(primitives.box((2.0, 4.0, 1.0), center=(x, 0.0, 1.0)), materials=np.array([1]), name=name)
+        scene.instances[-1].random = value
+    scene.lightgroups = {"lights": [], "instances": ["", "F", "G"], "world": ""}
+    result = render.render(scene, RenderSettings(width=4, height=2, samples=1, integrator="path", kernels=kernels,
+                                                 light_groups=("F", "G")))
+    assert result.stats.kernels.startswith(kernels)
+    left, right = np.s_[:, :2], np.s_[:, 2:]
+    np.testing.assert_allclose(group(result, "F")[left], np.broadcast_to(0.25 * e, (2, 2, 3)), rtol=1e-5)
+    np.testing.assert_allclose(group(result, "G")[right], np.broadcast_to(0.75 * e, (2, 2, 3)), rtol=1e-5)
+    assert group(result, "F")[right].max() == 0.0 and group(result, "G")[left].max() == 0.0
+    np.testing.assert_allclose(group(result, "F") + group(result, "G"), result.image[..., :3], rtol=1e-5, atol=1e-7)
+    assert not any("different light groups" in note for note in result.stats.warnings)

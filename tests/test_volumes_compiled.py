@@ -3,7 +3,7 @@ render to the same pixels (a few float32 ulps, as tests/test_compiled.py holds t
 absorbing and emitting media behind volume-only boundaries and inside Glass and Transparent surfaces, overlapping
 media, a camera inside a medium, shadow rays and bounces through media, the world's medium, single scattering (free
 flight, equi-angular points, light samples and phase rays) with every light-sampling mode; and where a render goes
-(the reference where the compiled volume stack is too small, with one warning)."""
+(any number of media compiled, MAX_MEDIA at once along a ray, said where a scene has more)."""
 from __future__ import annotations
 
 import math
@@ -203,9 +203,10 @@ def test_both_kernels_write_the_passes_light_groups_and_features_of_media_scenes
         np.testing.assert_allclose(compiled.aux[name], buffer, rtol=1e-6, atol=4e-7, err_msg=name)
 
 
-def test_more_media_than_the_compiled_stack_holds_render_through_the_reference_and_say_so_once():
-    """MAX_MEDIA volume materials fit the compiled kernel's volume stack; one more takes the Python reference, with
-    one warning."""
+def test_more_media_than_a_ray_is_in_at_once_render_compiled_to_the_references_pixels_and_say_so_once():
+    """MAX_MEDIA volume materials render compiled with nothing to say; one more still renders compiled (its volume
+    stack is sparse, as Cycles': any number of media, MAX_MEDIA of them at once along a ray) to the Python
+    reference's pixels, with one warning of that limit."""
     from core.volumes import MAX_MEDIA
     scene = room(looking())
     settings = RenderSettings(width=4, height=4, samples=1, integrator="path")
@@ -216,9 +217,11 @@ def test_more_media_than_the_compiled_stack_holds_render_through_the_reference_a
         scene.materials.append(fog(f"Fog {index}", color=COLOR, density=0.1))
         scene.add_mesh(primitives.box((0.2, 0.2, 0.2), center=(0.3 * index - 2.0, 2.0, 0.1)),
                        materials=np.array([len(scene.materials) - 1]))
-    result = render(scene, settings)
-    assert "volume stack" in result.stats.kernels
-    assert len([w for w in result.stats.warnings if "volumes" in w]) == 1
+    reference, compiled, stats = both(scene, width=8, height=6, samples=2)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+    notes = [w for w in stats.warnings if "volumes" in w]
+    assert len(notes) == 1 and "at most 16 at once" in notes[0], notes
 
 
 def noise_density(scale: float = 3.0):

@@ -15,6 +15,7 @@ typedef struct {
     int smooth;
     int32_t material;
     double time;        /* the time in the shutter it is placed at (a moving object's; 0.5 when nothing moves) */
+    int64_t object;     /* its object (Scene.instances entry, owner_of; -1: none), hit_triangle's only */
 } Triangle;
 
 /* v / |v|, or 0 where |v| is 0, infinite or NaN: normals.safe_normalize (|v|^2 summed as numpy's
@@ -136,6 +137,12 @@ INLINE void instanced_triangle(const InstancedTables *mesh, int64_t j, int64_t l
     }
 }
 
+/* WorldGeometry.owners for one Embree hit: the Scene.instances entry of the object hit (-1: none). */
+INLINE int64_t owner_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
+{
+    return geometry <= 0 ? (int64_t)g->instance[prim] : (int64_t)g->meshes[geometry - 1].owner[instance];
+}
+
 /* The hit triangle of Embree's answer (geometry id, primitive, placement), copied or instanced; a moving one where
  * it is at the ray's `time`. */
 INLINE void hit_triangle(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance, int want_smooth,
@@ -144,6 +151,7 @@ INLINE void hit_triangle(const GeometryTables *g, int64_t geometry, int64_t prim
     if (geometry <= 0) copied_triangle(g, prim, want_smooth, out);
     else instanced_triangle(g->meshes + (geometry - 1), instance, prim, want_smooth, time, out);
     out->time = time;
+    out->object = g->instance != NULL || geometry > 0 ? owner_of(g, geometry, prim, instance) : -1;
 }
 
 /* The material row of an Embree hit: hit_triangle's `material` alone, without reading or placing its corners. */
@@ -152,12 +160,6 @@ INLINE int32_t hit_material(const GeometryTables *g, int64_t geometry, int64_t p
     if (geometry <= 0) return g->material[prim];
     const InstancedTables *mesh = g->meshes + (geometry - 1);
     return mesh->material[(int64_t)mesh->material_row[instance] * (int64_t)mesh->triangle_count + prim];
-}
-
-/* WorldGeometry.owners for one Embree hit: the Scene.instances entry of the object hit (-1: none). */
-INLINE int64_t owner_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
-{
-    return geometry <= 0 ? (int64_t)g->instance[prim] : (int64_t)g->meshes[geometry - 1].owner[instance];
 }
 
 /* WorldGeometry.hidden for one Embree hit: whether its object hides from the rays of `bit`. */
@@ -224,6 +226,7 @@ typedef struct {
     int backfacing;     /* 1: the ray hit the triangle from behind (leaves a closed object) */
     double t;           /* Embree's distance along the ray (the Light Path node's Ray Length) */
     double time;        /* its ray's time in the shutter: the rays it sends carry it (object motion blur) */
+    int64_t object;     /* its triangle's object (Triangle.object): which medium it bounds (media.c medium_column) */
 } Surface;
 
 /* The surface of one hit: surface.hit_points, surface_at_hits, shadows.error_bound and, for the
@@ -235,6 +238,7 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
     double w = 1.0 - u - v;
     s->t = t;
     s->time = tri->time;
+    s->object = tri->object;
     s->smooth = tri->smooth;
     s->material = tri->material;
     /* 1. I: the float64 ray meets the triangle's plane, unless that disagrees with Embree's t. */

@@ -94,7 +94,7 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
             H->t[lane] = (double)packet.ray.tfar[k];
             double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]};
             double D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
-            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
             hit_triangle(params->geometry, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                          instance_of(&packet.hit, k), 1, b->time[lane], &tri);
             surface_at(O, D, (double)packet.ray.tfar[k], (double)packet.hit.u[k], (double)packet.hit.v[k], &tri,
@@ -436,7 +436,7 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
     for (int c = 0; c < 3; c++) { T[c] = 1.0; front[c] = 0.0; }
     for (;;) {
         int catcher = hidden_from(params->geometry, geometry, prim, instance, SHADOW_CATCHER);
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
         hit_triangle(params->geometry, geometry, prim, instance, 1, time, &tri);
         const MaterialRecord *m = params->materials + tri.material;
         if (!catcher && (m->may_pass == 0 || passed + 1 >= (int)params->transparent_bounces

@@ -148,7 +148,7 @@ INLINE void see_past_hidden(const GeometryTables *g, Intersect8 intersect, void 
            && hidden_from(g, (int64_t)packet->hit.geomID[k], (int64_t)packet->hit.primID[k], instance_of(&packet->hit, k),
                           bit)) {
         /* On from just past the hidden triangle, for what is left of the ray. */
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
         hit_triangle(g, (int64_t)packet->hit.geomID[k], (int64_t)packet->hit.primID[k], instance_of(&packet->hit, k), 0,
                      time, &tri);
         Surface s;
@@ -524,7 +524,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
                 const Surface *sf = H->s + b->hit[k];
                 double N[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
                 stacks[lanes] = H->inside[b->hit[k]];
-                stack_cross(media, stacks + lanes, sf->material, sf->backfacing, dot3(N, L) < 0.0);
+                stack_cross(media, stacks + lanes, sf, dot3(N, L) < 0.0);
             }
             for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * b->color[c][k]) * b->f[c][k];
             if (caps != NULL) {
@@ -704,7 +704,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             int hidden = hidden_from(tr->geometry, geometry, prim, instance, HIDDEN_FROM_SHADOW);
             if (blockers != NULL && blockers[l] != ALL_SETS)      /* Shadow Linking: only its blocker sets stop it */
                 hidden |= !in_sets(blockers[l], links_of(tr->geometry, geometry, prim, instance, 1));
-            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
             hit_triangle(tr->geometry, geometry, prim, instance, 1, times[l], &tri);
             int boundary = is_boundary(media, tri.material);
             /* (Cycles: a shadow ray passes what is left of the path's transparent bounces, the limit less its count) */
@@ -734,7 +734,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 int clear = sd.transparency[0] != 0.0 || sd.transparency[1] != 0.0 || sd.transparency[2] != 0.0;
                 for (int c = 0; c < 3; c++) T[l][c] *= clear ? (sd.transparency[c] + sd.portal[c]) * passes : 0.0;
             }
-            if (media != NULL) stack_cross(media, inside + l, s.material, s.backfacing, !hidden);
+            if (media != NULL) stack_cross(media, inside + l, &s, !hidden);
             /* On from just past that surface, for what is left of the way to the light: towards the ray's own
              * end point, so that the step off the surface (along its normal) does not carry the end onto the
              * light (Cycles moves only the start of its one shadow ray). A sun's ray keeps its direction. */
@@ -785,7 +785,7 @@ NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, 
                            const double *O, const double *D, double t, double time, const LightPath *path,
                            const ShaderKeys *keys, double *out)
 {
-    Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+    Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
     hit_triangle(ds->geometry, geometry, prim, instance, 1, time, &tri);
     double P[3] = {O[0] + t * D[0], O[1] + t * D[1], O[2] + t * D[2]}, u, v;
     point_barycentrics(tri.V, P, &u, &v);
@@ -1281,7 +1281,7 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             if (ds->media != NULL) {
                 const Surface *sf = H->s + owner[k];
                 inside = H->inside[owner[k]];
-                stack_cross(ds->media, &inside, sf->material, sf->backfacing, goes_through(s->kind, transmit));
+                stack_cross(ds->media, &inside, sf, goes_through(s->kind, transmit));
                 if (walked && walk.exits)       /* (a walk's exit: the media across from its entry, walk_media) */
                     walk_media(ds->media, ds->geometry, ds->intersect, ds->scene, sf->I, walk.P,
                                owner_of(ds->geometry, H->geometry[owner[k]], H->prim[owner[k]], H->instance[owner[k]]),

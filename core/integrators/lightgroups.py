@@ -108,7 +108,7 @@ class LightGroups:
         groups = [set() for _ in range(V)]
         owner_groups = np.append(self.instances, NONE)
         for prims, triangles in triangle_chunks(geometry):
-            column = media.column[triangles.material]
+            column = media.column_of(triangles.material, media.objects_of(geometry, prims))   # (per object: its own)
             rows = np.flatnonzero(column >= 0)
             if len(rows) == 0:
                 continue
@@ -129,11 +129,17 @@ class LightGroups:
     def overlapping(self, geometry, media) -> bool:
         """Whether the boxes of two media of `media` (core/volumes Media) in different groups (`media`, of_media)
         overlap: where a ray may be in both at once, and its emission's group is the one listed last's."""
-        from ..volumes.media import material_bounds
+        from ..volumes.media import triangle_chunks
         if self.media is None or len(set(self.media.tolist())) < 2:
             return False
-        rows = np.flatnonzero(media.column >= 0)
-        boxes = {int(media.column[row]): material_bounds(geometry, int(row)) for row in rows}
+        V = len(media.g)                    # (each column's box: a medium kept per object has its objects' own)
+        low, high = np.full((V, 3), np.inf), np.full((V, 3), -np.inf)
+        for prims, triangles in triangle_chunks(geometry):
+            column = media.column_of(triangles.material, media.objects_of(geometry, prims))
+            for v in np.unique(column[column >= 0]):
+                corners = triangles.corners[column == v].reshape(-1, 3)
+                low[v], high[v] = np.minimum(low[v], corners.min(axis=0)), np.maximum(high[v], corners.max(axis=0))
+        boxes = {v: (low[v], high[v]) for v in range(V) if np.isfinite(low[v]).all()}
         for a in boxes:
             for b in boxes:
                 if a < b and self.media[a] != self.media[b] and np.all(boxes[a][0] < boxes[b][1]) \

@@ -97,7 +97,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
     int use_mis = ds->mis && isfinite(r->pdf);
     for (;;) {
         /* 1. The surface met: what it lets through, seen along the ray. */
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
         hit_triangle(ds->geometry, geometry, prim, instance, 1, r->time, &tri);
         const MaterialRecord *material = ds->materials + tri.material;
         if (material->may_pass == 0.0) return;
@@ -107,7 +107,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
         clear += !is_boundary(ds->media, tri.material);
         path.transparent = clear;
-        if (ds->media != NULL) stack_cross(ds->media, &inside, tri.material, s.backfacing, 1);
+        if (ds->media != NULL) stack_cross(ds->media, &inside, &s, 1);
         if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || clear > limits->transparent_bounces) return;
         /* 2. On from just past it, straight ahead, gathering what the ray finds. */
         spawn_ray(s.I, s.Ng, D, s.offset, O);
@@ -278,7 +278,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         if (!(isfinite(tp[0]) && isfinite(tp[1]) && isfinite(tp[2]))) continue;
         /* c. The next vertex: the surface the ray hit, its material seen from the ray. */
         int64_t m = next->m++;
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
         hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, r->time, &tri);
         surface_at(r->O, r->D, r->t, r->u, r->v, &tri, lift, next->s + m);
         begin_vertex(next, m, r->geometry, r->prim, r->instance, r->u, r->v, r->D, tp);
@@ -347,7 +347,7 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     ShaderRays traced = {ds->intersect, ds->occluded, ds->scene, ds->geometry, ds->seed};
     int64_t m = next->m++;
     const PhaseRay *r = &a->ray;
-    Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+    Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
     hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, STILL_TIME, &tri);
     surface_at(a->O, r->wi, r->t, r->u, r->v, &tri, lift, next->s + m);
     begin_vertex(next, m, r->geometry, r->prim, r->instance, r->u, r->v, r->wi, a->throughput);

@@ -253,7 +253,7 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         passed[alive] += ~boundary
         if media is not None:                    # (straight through the surface: into or out of its medium)
             inside[alive] = media.crossed(inside[alive], surface.material, surface.backfacing,
-                                          np.ones(len(alive), bool))
+                                          np.ones(len(alive), bool), media.objects_of(ctx.geometry, surface.prim))
         go = ((T[alive] > 0.0).any(axis=1) & (passed[alive] <= s.transparent_max_bounces)
               & ctx.materials.may_pass[surface.material])
         alive, I, Ng, D = alive[go], surface.I[go], surface.Ng[go], D[go]

@@ -259,7 +259,7 @@ def media_bounds(geometry, media) -> tuple:
     for start in range(0, geometry.triangle_count, 1 << 20):
         triangles = geometry.triangle_data(np.arange(start, min(start + (1 << 20), geometry.triangle_count)),
                                            smooth=False)
-        inside = media.column[triangles.material] >= 0
+        inside = media.has_medium[triangles.material]
         if inside.any():
             corners = triangles.corners[inside].reshape(-1, 3)
             low, high = np.minimum(low, corners.min(axis=0)), np.maximum(high, corners.max(axis=0))
@@ -282,7 +282,7 @@ def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
         rows = alive[hit]
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
-        column = media.column[surface.material]
+        column = media.column_of(surface.material, media.objects_of(ctx.geometry, surface.prim))
         has = column >= 0
         back, front = has & surface.backfacing, has & ~surface.backfacing
         np.add.at(entered, (rows[front], column[front]), 1)

@@ -157,7 +157,7 @@ static void shader_bevel(const ShadingPoint *sp, double radius, int samples, dou
         int64_t count = local_hits(rays, O, D, 2.0 * h, s->time, owner, BEVEL_MAX_HITS, g, p, i, hu, hv, ht);
         /* 3. Each hit's smooth normal, weighed by the planes' MIS and the falloff at its true distance. */
         for (int64_t k = 0; k < count && k < BEVEL_MAX_HITS; k++) {
-            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
             hit_triangle(rays->geometry, g[k], p[k], i[k], 1, s->time, &tri);
             double N[3] = {tri.Ng[0], tri.Ng[1], tri.Ng[2]};
             if (tri.smooth) {

@@ -265,7 +265,8 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, bl
                            portal_.shadow_transparency(shader))
         T[rows] *= np.where(hidden[:, None], 1.0, through)
         if media is not None:
-            inside[rows] = media.crossed(inside[rows], surface.material, surface.backfacing, ~hidden)
+            inside[rows] = media.crossed(inside[rows], surface.material, surface.backfacing, ~hidden,
+                                         media.objects_of(ctx.geometry, surface.prim))
         # On from just past that surface, for what is left of the way to the light: towards the ray's end.
         O[rows] = spawn_ray(surface.I, surface.Ng, D[rows], error_bound(surface.I, surface.vertices))
         w = ends[rows] - O[rows]

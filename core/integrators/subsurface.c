@@ -298,7 +298,7 @@ NOINLINE static int64_t subsurface_disk(const ShaderRays *rays, const Surface *s
         if (i >= used) continue;
         int64_t k = (start + i) % n;
         slot_of[i] = k;
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
         hit_triangle(rays->geometry, hg[k], hp[k], hi[k], 0, s->time, &tri);
         for (int j = 0; j < 3; j++) normal[i][j] = tri.Ng[j] * back;
         double pN = pick[0] * fabs(dot3(disk_N, normal[i])), pT = pick[1] * fabs(dot3(disk_T, normal[i]));
@@ -410,12 +410,12 @@ static void walk_media(const MediaTables *media, const GeometryTables *geometry,
         if (packet.hit.geomID[0] == INVALID_ID) return;
         int64_t g = (int64_t)packet.hit.geomID[0], prim = (int64_t)packet.hit.primID[0];
         int64_t instance = instance_of(&packet.hit, 0);
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
         hit_triangle(geometry, g, prim, instance, 0, STILL_TIME, &tri);   /* (a render with media moves no object) */
         Surface s;
         surface_at(P, D, (double)packet.ray.tfar[0], (double)packet.hit.u[0], (double)packet.hit.v[0], &tri, 0, &s);
         /* b. Another object's medium entered or left (the walk's own object: the walk enters and leaves it). */
-        stack_cross(media, stack, s.material, s.backfacing, owner_of(geometry, g, prim, instance) != owner);
+        stack_cross(media, stack, &s, s.object != owner);
         /* c. On from just past it (shadows.spawn_ray, on the side D goes to). */
         double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;
         for (int c = 0; c < 3; c++) P[c] = s.I[c] + (s.offset * side) * s.Ng[c];

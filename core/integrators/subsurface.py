@@ -367,8 +367,9 @@ def media_across(ctx, inside: np.ndarray, P0: np.ndarray, P1: np.ndarray, owner:
         rows = alive[hit]
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
-        other = ctx.geometry.owners(found.prim[hit]) != owner[rows]
-        inside[rows] = media.crossed(inside[rows], surface.material, surface.backfacing, other)
+        objects = ctx.geometry.owners(found.prim[hit])
+        inside[rows] = media.crossed(inside[rows], surface.material, surface.backfacing, objects != owner[rows],
+                                     objects)
         O[rows] = shadows.spawn_ray(surface.I, surface.Ng, D[rows], shadows.error_bound(surface.I, surface.vertices))
         alive = rows
     return inside

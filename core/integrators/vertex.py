@@ -456,7 +456,9 @@ def media_beyond(ctx: Context, surface, rows: np.ndarray, inside: np.ndarray, th
     """The media (k, V) of rays leaving the hits `rows` (k,) of `surface` from the media `inside` (k, V) they were
     reached in: where a ray goes `through` (k,) bool the surface, it enters the hit material's medium through a front
     face or leaves it through a back face (Cycles' volume_stack_enter_exit, for a transmission's label)."""
-    return ctx.extra["media"].crossed(inside, surface.material[rows], surface.backfacing[rows], through)
+    media = ctx.extra["media"]
+    return media.crossed(inside, surface.material[rows], surface.backfacing[rows], through,
+                         media.objects_of(ctx.geometry, surface.prim[rows]))
 
 
 def lights_itself(surface, emitters, ls, NL: np.ndarray, NgL: np.ndarray) -> np.ndarray:

@@ -398,7 +398,7 @@
 #define GRID_WIDTH 4
 /* Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission) (core.volumes.media) */
 #define STEFAN_BOLTZMANN 1.8049357842496396e-14
-/* the most volume materials the compiled kernel's volume stack holds (core.volumes.media) */
+/* the most media a ray is in at once in the compiled volume stack (core.volumes.media) */
 #define MAX_MEDIA 16
 /* a medium's phase function (core/volumes/phase.py) (core.volumes.phase) */
 #define PHASE_HENYEY_GREENSTEIN 0
@@ -1313,18 +1313,24 @@ struct VolumeField {
     int32_t grid_count;                     /* G: a Volume object's grids its program reads (core/volumes/grids.py), or 0 */
     const double *grid_table;               /* (G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic */
     const float *voxels;                    /* the grids' values, each (X, Y, Z, C) row-major */
+    const double *info;                     /* (W,) the Object Info row its program reads (Field.info: the placement and zeros, or a medium kept per object's own row of geometry.instance_info) */
+    int32_t info_width;                     /* W */
+    double random;                          /* the Object Info Random its program reads (0, or the object's: Field.random) */
 };
 
 /* The render's homogeneous media (core/volumes/media.py Media.tables), for media.c. */
 struct MediaTables {
-    int64_t count;                          /* V: the volume materials (columns), at most MAX_MEDIA */
+    int64_t count;                          /* V: the media (columns: per volume material, or per object: Media.column_of) */
     const double *sigma_t;                  /* (V, 3) each column's extinction sigma_a + sigma_s */
     const double *emission;                 /* (V, 3) each column's emission per unit length */
     const double *sigma_s;                  /* (V, 3) each column's scattering coefficient */
     const double *g;                        /* (V,) each column's Henyey-Greenstein anisotropy (another phase function's mean cosine) */
     const int32_t *phase;                   /* (V,) each column's phase function (PHASE_...) */
     const double *parameters;               /* (V, PHASE_PARAMETERS) and its numbers (phase.Phase.parameters) */
-    const int32_t *column;                  /* (m + 1,) each material row's column, -1 where it has no volume */
+    const int32_t *column;                  /* (m + 1,) each material row's column, -1 where it has no volume (or keeps it per object) */
+    const int32_t *keyed;                   /* (m + 1,) each material row's row of object_column (media kept per object), -1: none */
+    const int32_t *object_column;           /* (K, objects) the column of the medium object o holds of keyed material k, or -1 */
+    int64_t objects;                        /* the Scene.instances entries (object_column's row length) */
     const int32_t *boundary;                /* (m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface) */
     const int32_t *shadowless;              /* (V,) 1: shadow rays pass the column's medium (its objects hide from them) */
     double world_sigma_t[3];                /* the world's medium's extinction (0: none) */
@@ -1401,8 +1407,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "VolumeField") == 0) return UINT64_C(4923474972672114994);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(2306803395546795759);
+    if (strcmp(name, "VolumeField") == 0) return UINT64_C(219872329779630044);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(395041555413493401);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;
 }

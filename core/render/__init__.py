@@ -570,9 +570,10 @@ def compensates_world(settings: RenderSettings) -> bool:
 def volume_reason(ctx: Context, warnings: list) -> str:
     """Why a scene with media takes the Python reference ('' where the compiled kernel renders it, and without media).
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
-    Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c); more volume materials than
-    its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
-    no media. (prepare says which light group the emission of overlapping media of different groups goes to.)"""
+    Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c), any number of them (its
+    volume stack is sparse); that a ray is in at most MAX_MEDIA of them at once there is said once in `warnings` where
+    a scene has more, and so is that Whitted's tracer renders no media. (prepare says which light group the emission
+    of overlapping media of different groups goes to.)"""
     media = ctx.extra.get("media")
     if media is None:
         return ""
@@ -590,13 +591,17 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                    "corrects the march by ratio tracking)" if media.heterogeneous else ""))
         if note not in warnings:
             warnings.append(note)
-    if len(media.g) <= volumes.MAX_MEDIA:
-        return ""
-    reason = f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
-    note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
-    if note not in warnings:
-        warnings.append(note)
-    return reason
+    if len(media.g) > volumes.MAX_MEDIA:
+        # (the compiled stack is sparse, as Cycles': any number of media, MAX_MEDIA of them at once along a ray)
+        kept = int((media.keyed >= 0).sum())
+        note = (f"volumes: {len(media.g)} media"
+                + (f" ({len(media.g) - int((media.column >= 0).sum())} of them kept per object for {kept} "
+                   f"material{'s' if kept > 1 else ''} whose volume reads Object Info)" if kept else "")
+                + f"; a ray is in at most {int(volumes.MAX_MEDIA)} at once in the compiled kernel's volume stack and "
+                  "leaves a further one out (Cycles: 30)")
+        if note not in warnings:
+            warnings.append(note)
+    return ""
 
 
 def object_blur_reason(scene: Scene, settings: RenderSettings) -> str:

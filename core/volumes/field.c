@@ -24,6 +24,11 @@ typedef struct {
     int tracked;
     const MediaTables *media;
     VolumeStack stack;
+    /* The fields the ray is in (its stack's and the world's, in the chain's order) and how many times: the march's
+     * loops over them, not the whole chain (a render may have a field per object: media.py per_object). */
+    const VolumeField *in[MAX_MEDIA + 1];
+    double in_count[MAX_MEDIA + 1];
+    int in_n;
     double O[3], D[3], hom_t[3], hom_s[3], hom_e[3], hom_gs;
     double mid[MAX_PIECES + 2], slope[MAX_PIECES + 2][3], mu[MAX_PIECES + 2], M[MAX_PIECES + 3];
     double eslope[MAX_PIECES + 2][3];    /* the emission's control slope (March.emitted) */
@@ -111,8 +116,9 @@ static void grid_sample(const VolumeField *f, int g, const double *local, double
 }
 
 /* Field.coordinates and the volume shading point Field.at runs its program at: the camera-relative point P (3) in
- * world space, its Generated and Object coordinates, a volume-scatter path; info: room for OBJECT_INFO_WIDTH. */
-INLINE void field_point(const VolumeField *f, const double *P, double *info, ShadingPoint *sp)
+ * world space, its Generated and Object coordinates, a volume-scatter path; its object's Object Info (VolumeField.info,
+ * random: the placement and zeros, or for a medium kept per object that object's own row and random number). */
+INLINE void field_point(const VolumeField *f, const double *P, ShadingPoint *sp)
 {
     double world[3], local[3];
     for (int c = 0; c < 3; c++) world[c] = P[c] + f->origin[c];
@@ -131,11 +137,10 @@ INLINE void field_point(const VolumeField *f, const double *P, double *info, Sha
         sp->P[c] = world[c];
     }
     for (int c = 0; c < 9; c++) sp->L[c] = f->linear[c];
-    for (int c = 0; c < OBJECT_INFO_WIDTH; c++) info[c] = c < 3 ? f->placement[c] : 0.0;
-    sp->info = info;
-    sp->info_width = 8;
+    sp->info = f->info;
+    sp->info_width = f->info_width;
     sp->rays = NULL;                                    /* (a medium's graph traces nothing) */
-    sp->random = 0.0;
+    sp->random = f->random;
     sp->side = 1.0;
     LightPath path = {PATH_VOLUME_SCATTER, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
     sp->path = path;
@@ -168,8 +173,8 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
                      double *gs, Phase *mix, double count)
 {
     ShadingPoint sp;
-    double info[OBJECT_INFO_WIDTH], reg[MAX_REGISTERS];
-    field_point(f, P, info, &sp);
+    double reg[MAX_REGISTERS];
+    field_point(f, P, &sp);
     run_program(f->graph, 0, &sp, NULL, reg);
     for (int c = 0; c < 3; c++) sigma_a[c] = sigma_s[c] = emission[c] = 0.0;
     *gs = 0.0;
@@ -267,7 +272,7 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
  * (column -1: every ray, Media.along). */
 INLINE double field_count(const VolumeField *f, const VolumeStack *stack)
 {
-    return f->column < 0 ? 1.0 : (double)stack->count[f->column];
+    return f->column < 0 ? 1.0 : (double)stack_count(stack, f->column);
 }
 
 /* Whether a ray with the volume stack `stack` is in a heterogeneous medium (Stretch.varying). */
@@ -336,9 +341,9 @@ static double march_fields_at(const March *m, double x, double *sigma_t, double 
 {
     double P[3], sa[3] = {0.0, 0.0, 0.0}, ss[3] = {0.0, 0.0, 0.0}, sg = 0.0;
     for (int c = 0; c < 3; c++) P[c] = m->O[c] + x * m->D[c];
-    for (const VolumeField *f = m->media->fields; f != NULL; f = f->next) {
-        double count = field_count(f, &m->stack), fa[3], fs[3], fe[3], fg;
-        if (!(count > 0.0)) continue;
+    for (int i = 0; i < m->in_n; i++) {
+        const VolumeField *f = m->in[i];
+        double count = m->in_count[i], fa[3], fs[3], fe[3], fg;
         field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
         for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; }
         sg += count * fg;
@@ -352,9 +357,9 @@ static void march_fields_emission(const March *m, double x, double *emission)
 {
     double P[3], se[3] = {0.0, 0.0, 0.0};
     for (int c = 0; c < 3; c++) P[c] = m->O[c] + x * m->D[c];
-    for (const VolumeField *f = m->media->fields; f != NULL; f = f->next) {
-        double count = field_count(f, &m->stack), fa[3], fs[3], fe[3], fg;
-        if (!(count > 0.0)) continue;
+    for (int i = 0; i < m->in_n; i++) {
+        const VolumeField *f = m->in[i];
+        double count = m->in_count[i], fa[3], fs[3], fe[3], fg;
         field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
         for (int c = 0; c < 3; c++) se[c] += count * fe[c];
     }
@@ -366,6 +371,14 @@ static void march_fields_emission(const March *m, double x, double *emission)
 static void march_of(const MediaTables *media, const VolumeStack *stack, const double *O, const double *D, double t,
                      const double *sigma_t, const double *sigma_s, const double *emission, double g, March *m)
 {
+    /* 0. The fields the ray is in, in the chain's order (at most its stack's and the world's). */
+    m->in_n = 0;
+    for (const VolumeField *f = media->fields; f != NULL && m->in_n < MAX_MEDIA + 1; f = f->next) {
+        double count = field_count(f, stack);
+        if (!(count > 0.0)) continue;
+        m->in[m->in_n] = f;
+        m->in_count[m->in_n++] = count;
+    }
     /* 1. Where the ray is in the media's box: [a, b) within [0, t). */
     double near = -INFINITY, far = INFINITY;
     for (int c = 0; c < 3; c++) {
@@ -407,9 +420,10 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
         if ((j >= 1 && j <= K && b > a) || outer) {
             double mid = j == 0 ? a : j == K + 1 ? b : a + length * ((double)(j - 1) + 0.5), P[3];
             for (int c = 0; c < 3; c++) P[c] = O[c] + mid * D[c];
-            for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
-                double count = field_count(f, stack), fa[3], fs[3], fe[3], fg;
-                if (!(count > 0.0) || (outer && f->column >= 0)) continue;
+            for (int i = 0; i < m->in_n; i++) {
+                const VolumeField *f = m->in[i];
+                double count = m->in_count[i], fa[3], fs[3], fe[3], fg;
+                if (outer && f->column >= 0) continue;
                 field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
                 if (outer) {                           /* (before and after the box: the probes' mean, March) */
                     for (int k = 1; k < WORLD_PROBES; k++) {
@@ -539,8 +553,8 @@ static void march_emitted(const March *m, double *out)
         }
     }
     int emits = 0;
-    for (const VolumeField *f = m->tracked ? m->media->fields : NULL; f != NULL; f = f->next)
-        emits |= f->emits != 0 && field_count(f, &m->stack) > 0.0;
+    for (int i = 0; m->tracked && i < m->in_n; i++)
+        emits |= m->in[i]->emits != 0;
     double a = m->edges[1], b = m->edges[m->n - 1];
     if (emits && b > a) {
         double s = a + tracking_u(m->key, (int64_t)EMISSION_DRAW) * (b - a), T[3], e_true[3];

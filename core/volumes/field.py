@@ -147,9 +147,12 @@ class Field:
     world point the render's coordinates are relative to (geometry.origin); bounds: (low (3,), high (3,)) the
     camera-relative box of its triangles (the march's extent and step); step: the march's longest piece (None: the
     box's diagonal / STEPS_ACROSS); unbounded: the world's medium (`world_field`), which every ray is in and which
-    goes on past its box (March: held at its value where the ray leaves the box)."""
+    goes on past its box (March: held at its value where the ray leaves the box); info: (W,) float64 the Object Info
+    row its graph reads (a medium kept per object, media.Media.of: that object's row of geometry.instance_info) and
+    random its Object Info Random; None: Location the placement of `space`, every other column and Random 0."""
 
-    def __init__(self, entries: list, space=None, origin=None, bounds=None, step=None, unbounded=False):
+    def __init__(self, entries: list, space=None, origin=None, bounds=None, step=None, unbounded=False, info=None,
+                 random=0.0):
         from ..materials import graph as graph_
         self.entries = entries
         self.unbounded = bool(unbounded)
@@ -164,6 +167,9 @@ class Field:
         # (and object to world: the Vector Transform's and Object Info's Location, graph.object_matrices)
         placed = np.linalg.inv(np.vstack([self.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]
         self.linear, self.placement = placed[:, :3], placed[:, 3]
+        # (the Object Info its graph reads: C's VolumeField.info, random)
+        self.info = np.concatenate([self.placement, np.zeros(5)]) if info is None else np.asarray(info, np.float64)
+        self.random = float(random)
         self.low, self.high = ((np.full(3, -np.inf), np.full(3, np.inf)) if bounds is None
                                else (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)))
         diagonal = float(np.linalg.norm(self.high - self.low)) if np.isfinite(self.high - self.low).all() else 1.0
@@ -259,17 +265,38 @@ class Field:
             weights[:, k] = share
         return kinds, parameters, weights
 
-    def closures(self, P: np.ndarray):
+    def placed(self, info: np.ndarray, random: float, bounds, to_object=None, step=None) -> "Field":
+        """This medium held by another object (media.per_object): a copy (its program shared) whose graph reads the
+        Object Info row `info` (W,) and `random`, marched in `bounds` (low (3,), high (3,)) in pieces of at most
+        `step` (None: its box's diagonal / STEPS_ACROSS); with
+        `to_object` (3, 4) that object's world-to-object matrix, its Object coordinates (and Generated, in the same
+        texture space) and object transform that object's."""
+        import copy
+        made = copy.copy(self)
+        made.info, made.random = np.asarray(info, np.float64), float(random)
+        if to_object is not None:
+            made.matrix = np.asarray(to_object, np.float64).reshape(3, 4)
+            placed = np.linalg.inv(np.vstack([made.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]
+            made.linear, made.placement = placed[:, :3], placed[:, 3]
+        made.low, made.high = (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64))
+        made.step = (max(float(np.linalg.norm(made.high - made.low)), 1e-6) / STEPS_ACROSS if step is None
+                     else float(step))
+        return made
+
+    def closures(self, P: np.ndarray, info=None, random=None):
         """Each closure k's coefficients at camera-relative points P (n, 3) float64: (k, Sample (after its linked
-        Mix Shader factors), its inputs there {key: (n, width) float64}) in turn."""
+        Mix Shader factors), its inputs there {key: (n, width) float64}, and "factor" (n,) the product of its linked
+        Mix Shader factors where it has some) in turn. info (n, W), random (n,): each point's Object Info, where not
+        the medium's own (Field.info, random)."""
         from ..materials import graph as graph_
         n = len(P)
         width = 6 + GRID_WIDTH * len(self.grids)
-        info = np.zeros((n, 8))
-        info[:, :3] = self.placement
         point = graph_.empty_point(n, width)._replace(attributes=self.coordinates(P), P=P + self.origin,
                                                   path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]),
-                                                  linear=np.broadcast_to(self.linear, (n, 3, 3)), info=info)
+                                                  linear=np.broadcast_to(self.linear, (n, 3, 3)),
+                                                  info=np.broadcast_to(self.info, (n, len(self.info)))
+                                                  if info is None else info,
+                                                  random=np.full(n, self.random) if random is None else random)
         registers = graph_.run(self.program, point, self.textures)
         found, factors = {}, {}
         for kind, node, slot, width, register in self.program.outputs.astype(np.int64):
@@ -297,6 +324,7 @@ class Field:
             part = closure_at(name, float(weight), values, voxels)
             if k in factors:
                 f = factors[k]
+                values["factor"] = f                    # (n,) its linked Mix Shader factors' product
                 part = Sample(part.sigma_a * f[:, None], part.sigma_s * f[:, None], part.emission * f[:, None],
                               part.gs * f)
             yield k, part, values
@@ -780,19 +808,25 @@ def inputs_table(field: "Field") -> tuple:
     return kinds, weights, table, np.array(factors, np.float64).reshape(-1, 3)
 
 
-def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRecord":
+def field_record(field: "Field", column: int, following=None, shared=None) -> "VolumeFieldRecord":
     """The C record (VolumeField) of a Field whose media column is `column`, followed by the record `following`
-    (None: the last). The record keeps its arrays alive."""
+    (None: the last). The record keeps its arrays alive. shared: a dict in which the fields of one program (a medium
+    kept per object: Field.placed) share their program's tables, closures and grids (one record of each), or None."""
     from ..materials import graph as graph_
     c = np.ascontiguousarray
-    kinds, weights, table, factors = inputs_table(field)
+    shared = {} if shared is None else shared
+    key = (id(field.program), id(field.textures), id(field.grids))
+    if key not in shared:
+        kinds, weights, table, factors = inputs_table(field)
+        shared[key] = dict(
+            graph=graph_.program_tables([field.program], field.textures), closures=len(kinds),
+            scatters=int(field.scatters), emits=int(field.emits), kinds=c(kinds), weights=c(weights),
+            inputs=c(table.reshape(-1)), factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)),
+            factor_count=len(factors), phases=c(field.phases), hot=c(field.hot), **grid_tables(field.grids))
     return VolumeFieldRecord(
-        graph=graph_.program_tables([field.program], field.textures), next=following, column=int(column),
-        closures=len(kinds), scatters=int(field.scatters), emits=int(field.emits), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
-        factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
-        matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
-        linear=field.linear.reshape(-1), placement=field.placement, phases=c(field.phases), hot=c(field.hot),
-        **grid_tables(field.grids))
+        next=following, column=int(column), matrix=field.matrix.reshape(-1), location=field.location,
+        size=field.size, origin=field.origin, linear=field.linear.reshape(-1), placement=field.placement,
+        info=c(field.info, np.float64), info_width=len(field.info), random=float(field.random), **shared[key])
 
 
 # The columns of a grid's row in VolumeField.grid_table: where its values start in `voxels`, X, Y, Z, C, lower (3),
@@ -840,4 +874,8 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("grid_count", I32, "G: a Volume object's grids its program reads (core/volumes/grids.py), or 0"),
     ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic"),
     ("voxels", ptr(F32), "the grids' values, each (X, Y, Z, C) row-major"),
+    ("info", ptr(F64), "(W,) the Object Info row its program reads (Field.info: the placement and zeros, or a medium "
+                       "kept per object's own row of geometry.instance_info)"),
+    ("info_width", I32, "W"),
+    ("random", F64, "the Object Info Random its program reads (0, or the object's: Field.random)"),
 ])

@@ -1,26 +1,71 @@
 /* Homogeneous media: core/volumes/media.py's Media table, a ray's volume stack, Beer-Lambert and media emission.
  *
- * A ray's volume stack is a count per volume material (MAX_MEDIA of them, int16, as Media.crossed keeps them): one
- * more where it went through a front face of that material's mesh, one less through a back face. What a stretch of
- * the ray crosses is the world's medium plus each stacked medium as many times as the ray is in it. */
+ * A ray's volume stack holds the media it is in and how many times (Media.crossed keeps a count per medium, int16):
+ * per volume material, or per object where its graph reads the object's Object Info (Media.column_of, medium_column;
+ * Cycles' stack holds (object, shader) pairs): one more where it went through a front face of its mesh, one less
+ * through a back face. What a stretch of the ray crosses is the world's medium plus each stacked medium as many times
+ * as the ray is in it. The stack is sparse, as Cycles' is: a render may have any number of media (columns), a ray
+ * be in MAX_MEDIA of them at once; a further one it enters is left out, as Cycles leaves out what its stack has no
+ * room for (volume_stack_enter_exit; its stack holds 30 objects' media, MAX_VOLUME_STACK_SIZE less the world's and
+ * the end). The Python reference's stacks have room for all. */
 
-/* A ray's volume stack (Media.crossed's row): a count per column of the MediaTables. */
-typedef struct { int16_t count[MAX_MEDIA]; } VolumeStack;
+/* A ray's volume stack (Media.crossed's row, its nonzero counts): `size` media, their columns of the MediaTables
+ * in increasing order (the order the dense row sums them in) and how many times the ray is in each. */
+typedef struct {
+    int32_t column[MAX_MEDIA];
+    int16_t count[MAX_MEDIA];
+    int32_t size;
+} VolumeStack;
 
 /* Media.start: the stack of a ray in no mesh's medium. */
 INLINE void stack_empty(VolumeStack *stack)
 {
-    for (int v = 0; v < MAX_MEDIA; v++) stack->count[v] = 0;
+    stack->size = 0;
+}
+
+/* How many times a ray with stack `stack` is in the medium of column v (0: not in it). */
+INLINE int stack_count(const VolumeStack *stack, int32_t v)
+{
+    for (int i = 0; i < stack->size; i++)
+        if (stack->column[i] == v) return stack->count[i];
+    return 0;
+}
+
+/* Column v's count changed by `step` (+1 or -1), never below 0: a medium left out of the stack at 0, one entered
+ * kept in column order; one more where the stack is full is left out (Cycles: "exceed the stack limit, ignore"). */
+INLINE void stack_add(VolumeStack *stack, int32_t v, int step)
+{
+    int i = 0;
+    while (i < stack->size && stack->column[i] < v) i++;
+    if (i < stack->size && stack->column[i] == v) {
+        int next = (int)stack->count[i] + step;
+        if (next > 0) {
+            stack->count[i] = (int16_t)next;
+            return;
+        }
+        for (int j = i; j + 1 < stack->size; j++) {
+            stack->column[j] = stack->column[j + 1];
+            stack->count[j] = stack->count[j + 1];
+        }
+        stack->size--;
+        return;
+    }
+    if (step <= 0 || stack->size >= MAX_MEDIA) return;
+    for (int j = stack->size; j > i; j--) {
+        stack->column[j] = stack->column[j - 1];
+        stack->count[j] = stack->count[j - 1];
+    }
+    stack->column[i] = v;
+    stack->count[i] = (int16_t)step;
+    stack->size++;
 }
 
 /* lightgroups.LightGroups.emission_groups for one stack: the light group of the media's emission along a ray in it,
  * that of the last column the ray is in (Cycles: the object of its volume stack's last entry), else world_group. */
 INLINE int64_t emission_group(const MediaTables *media, const VolumeStack *stack, int64_t world_group)
 {
-    if (media->groups == NULL || stack == NULL) return world_group;
-    for (int64_t v = (int64_t)media->count - 1; v >= 0; v--)
-        if (stack->count[v] > 0) return (int64_t)media->groups[v];
-    return world_group;
+    if (media->groups == NULL || stack == NULL || stack->size == 0) return world_group;
+    return (int64_t)media->groups[stack->column[stack->size - 1]];     /* (the stack keeps its columns in order) */
 }
 
 /* Media.along for one stack: the extinction sigma_t (3) and emission (3) of what the ray crosses, the world's plus
@@ -28,8 +73,9 @@ INLINE int64_t emission_group(const MediaTables *media, const VolumeStack *stack
 INLINE void medium_along(const MediaTables *media, const VolumeStack *stack, double *sigma_t, double *emission)
 {
     double sigma[3] = {0.0, 0.0, 0.0}, e[3] = {0.0, 0.0, 0.0};
-    for (int64_t v = 0; v < (int64_t)media->count; v++) {
-        double n = (double)stack->count[v];
+    for (int i = 0; i < stack->size; i++) {
+        int64_t v = stack->column[i];
+        double n = (double)stack->count[i];
         for (int c = 0; c < 3; c++) {
             sigma[c] += n * media->sigma_t[3 * v + c];
             e[c] += n * media->emission[3 * v + c];
@@ -52,8 +98,9 @@ INLINE void medium_scattering(const MediaTables *media, const VolumeStack *stack
     double world_share = (w[0] + w[1]) + w[2], best = world_share;
     int64_t first = -1;                                  /* (-1: the world) */
     int other = world_share > 0.0 && media->world_phase != PHASE_HENYEY_GREENSTEIN;
-    for (int64_t v = 0; v < (int64_t)media->count; v++) {
-        double n = (double)stack->count[v];
+    for (int i = 0; i < stack->size; i++) {
+        int64_t v = stack->column[i];
+        double n = (double)stack->count[i];
         const double *s = media->sigma_s + 3 * v;
         for (int c = 0; c < 3; c++) sum[c] += n * s[c];
         double share = n * ((s[0] + s[1]) + s[2]);
@@ -95,22 +142,36 @@ INLINE void add_media_emission(const double *sigma_t, const double *e, double t,
     }
 }
 
-/* Media.crossed for one ray that goes through (crossing) a surface of material row `material`: into its medium
- * through a front face, out of it through a back face (never below 0); no change for a material with no medium. */
-INLINE void stack_cross(const MediaTables *media, VolumeStack *stack, int64_t material, int backfacing, int crossing)
+/* Media.column_of for one surface of material row `material` on object `object` (Scene.instances, -1: none): the
+ * column of the medium it bounds (its material's, or that object's where the material keeps media per object), or
+ * -1 where it bounds none. */
+INLINE int32_t medium_column(const MediaTables *media, int64_t material, int64_t object)
 {
-    int32_t v = media->column[material];
+    int32_t k = media->keyed[material];
+    if (k < 0) return media->column[material];
+    return object < 0 ? -1 : media->object_column[(int64_t)k * media->objects + object];
+}
+
+/* Media.crossed for one ray that goes through (crossing) surface s: into the medium it bounds (medium_column)
+ * through a front face, out of it through a back face (never below 0); no change where it bounds none. */
+INLINE void stack_cross(const MediaTables *media, VolumeStack *stack, const Surface *s, int crossing)
+{
+    int32_t v = medium_column(media, s->material, s->object);
+    int backfacing = s->backfacing;
     if (!crossing || v < 0) return;
-    int next = (int)stack->count[v] + (backfacing ? -1 : 1);
-    stack->count[v] = (int16_t)(next < 0 ? 0 : next);
+    stack_add(stack, v, backfacing ? -1 : 1);
 }
 
 /* A shadow ray's stack from the stack it starts in: without the media shadow rays pass (Media.shadowless). */
 INLINE VolumeStack shadow_stack(const MediaTables *media, const VolumeStack *stack)
 {
-    VolumeStack shadow = *stack;
-    for (int v = 0; v < media->count; v++)
-        if (media->shadowless[v]) shadow.count[v] = 0;
+    VolumeStack shadow;
+    shadow.size = 0;
+    for (int i = 0; i < stack->size; i++) {
+        if (media->shadowless[stack->column[i]]) continue;
+        shadow.column[shadow.size] = stack->column[i];
+        shadow.count[shadow.size++] = stack->count[i];
+    }
     return shadow;
 }
 
@@ -143,17 +204,17 @@ static void camera_media(const MediaTables *media, const GeometryTables *geometr
         clear_hits(&packet);
         intersect(valid, scene, &packet, NULL);
         if (packet.hit.geomID[0] == INVALID_ID) return;
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0, -1};
         hit_triangle(geometry, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
                      instance_of(&packet.hit, 0), 0, STILL_TIME, &tri);   /* (a render with media moves no object) */
         Surface s;
         surface_at(P, D, (double)packet.ray.tfar[0], (double)packet.hit.u[0], (double)packet.hit.v[0], &tri, 0, &s);
         /* b. A front face entered; a back face left if entered on the way, else a medium the ray started in. */
-        int32_t v = media->column[s.material];
+        int32_t v = medium_column(media, s.material, s.object);
         if (v >= 0) {
-            if (!s.backfacing) entered.count[v]++;
-            else if (entered.count[v] > 0) entered.count[v]--;
-            else stack->count[v]++;
+            if (!s.backfacing) stack_add(&entered, v, 1);
+            else if (stack_count(&entered, v) > 0) stack_add(&entered, v, -1);
+            else stack_add(stack, v, 1);
         }
         /* c. On from just past it (shadows.spawn_ray: off the surface along Ng, on the side D goes to). */
         double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;

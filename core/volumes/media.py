@@ -20,11 +20,13 @@ sigma_a, sigma_s and emission sum; the phase functions mix by their scattering, 
 phase function (`Coefficients.__add__`), and g keeps the sigma_s-weighted mean cosine. A ray in overlapping media
 scatters the same way (`Media.along`, media.c medium_scattering).
 
-`Media` is one table per render: a column per material with a volume, the world's medium, and which materials are
-volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME). A material
-whose closures have inputs fed by links is a heterogeneous medium (field.py Field): its column's constant
-coefficients are zero and its rays are marched (`Stretch.march`), the march the proposal whose estimates ratio
-tracking and control variates make unbiased (`Stretch.transmittance`, `emitted`: field.March).
+`Media` is one table per render: a column per material with a volume (per object that holds it where its volume
+graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs: `per_object`), the
+world's medium, and which materials are volume-only boundaries (a Volume and no Surface: rays pass through them,
+as Cycles' SD_HAS_ONLY_VOLUME). A material whose closures have inputs fed by links is a heterogeneous medium
+(field.py Field): its column's constant coefficients are zero and its rays are marched (`Stretch.march`), the
+march the proposal whose estimates ratio tracking and control variates make unbiased (`Stretch.transmittance`,
+`emitted`: field.March).
 """
 from __future__ import annotations
 
@@ -233,9 +235,13 @@ def medium_of(entries: list) -> Coefficients:
 
 
 class Media:
-    """The render's media: a column per material with a volume, and the world's medium.
+    """The render's media: a column per material with a volume (or, where its volume graph reads the object's Object
+    Info, a column per object or per group of objects that read alike: `Media.of`), and the world's medium.
 
-    column:   (m + 1,) int64 each material row's column, -1 where it has no volume
+    column:   (m + 1,) int64 each material row's column, -1 where it has no volume or its media are kept per object
+    keyed:    (m + 1,) int64 each material row's row of object_column (its media kept per object), -1 where not
+    object_column: (K, n) int64 the column of the medium object o (Scene.instances) holds of keyed material k, -1
+              where it holds none; has_medium (m + 1,) bool the rows with a medium either way
     sigma_a, sigma_s, emission: (V, 3) float64 each column's coefficients; g (V,) float64 its anisotropy (mean
               cosine); phase (V,) int64 its phase function's kind, parameters (V, PHASE_PARAMETERS) its numbers
     world:    the world's Coefficients (zero where the world has no volume)
@@ -246,21 +252,36 @@ class Media:
     """
 
     def __init__(self, media: list, boundary, world: Optional[Coefficients] = None, fields: Optional[dict] = None,
-                 shadowless=None, world_field=None):
+                 shadowless=None, world_field=None, keyed: Optional[dict] = None, objects: int = 0):
         """media: one Coefficients or None per material row; boundary: (m + 1,) bool; world: Coefficients or None;
         fields: material row -> its heterogeneous medium (core/volumes/field.py Field; that row's Coefficients are
         then zero), or None; shadowless: (m + 1,) bool the material rows whose media shadow rays pass, or None;
-        world_field: the world's heterogeneous medium (a Field, `world_field_of`; world then None), or None."""
-        rows = [i for i, medium in enumerate(media) if medium is not None]
+        world_field: the world's heterogeneous medium (a Field, `world_field_of`; world then None), or None;
+        keyed: material row -> [(owners (j,) int64 Scene.instances entries, Coefficients, Field or None)] the media
+        of a row kept per object (one column each; that row's `media` entry is then ignored), or None; objects: n,
+        the Scene.instances entries."""
+        keyed = keyed or {}
+        rows = [i for i, medium in enumerate(media) if medium is not None and i not in keyed]
         fields = fields or {}
+        # Each column: (its Coefficients, its Field or None, its material row): the rows' own, then the kept ones.
+        columns = [(media[i], fields.get(i), i) for i in rows]
+        self.keyed = np.full(len(media), -1, np.int64)
+        self.object_column = np.full((len(keyed), max(int(objects), 1)), -1, np.int64)
+        for k, row in enumerate(sorted(keyed)):
+            self.keyed[row] = k
+            for owners, coefficients, field in keyed[row]:
+                self.object_column[k, np.asarray(owners, np.int64)] = len(columns)
+                columns.append((coefficients, field, row))
         # The heterogeneous media: each Field and its column (the world's last, column -1: every ray is in it once).
-        self.fields = [fields[i] for i in rows if i in fields] + ([world_field] if world_field is not None else [])
-        self.field_columns = np.array([k for k, i in enumerate(rows) if i in fields]
+        self.fields = [f for _, f, _ in columns if f is not None] + ([world_field] if world_field is not None else [])
+        self.field_columns = np.array([v for v, (_, f, _) in enumerate(columns) if f is not None]
                                       + ([-1] if world_field is not None else []), np.int64)
         self.world_field = world_field
         self.column = np.full(len(media), -1, np.int64)
         self.column[rows] = np.arange(len(rows))
-        pick = [media[i] for i in rows]
+        self.has_medium = (self.column >= 0) | (self.keyed >= 0)
+        self.rows = np.array([row for _, _, row in columns], np.int64)      # (V,) each column's material row
+        pick = [c for c, _, _ in columns]
         self.sigma_a = np.array([c.sigma_a for c in pick], np.float64).reshape(-1, 3)
         self.sigma_s = np.array([c.sigma_s for c in pick], np.float64).reshape(-1, 3)
         self.emission = np.array([c.emission for c in pick], np.float64).reshape(-1, 3)
@@ -269,33 +290,36 @@ class Media:
         self.parameters = np.array([c.parameters for c in pick], np.float64).reshape(-1, phase_.PHASE_PARAMETERS)
         self.world = NOTHING if world is None else world
         self.boundary = np.asarray(boundary, bool)
-        self.shadowless = (np.zeros(len(rows), bool) if shadowless is None
-                           else np.asarray(shadowless, bool)[np.asarray(rows, np.int64)])
+        self.shadowless = (np.zeros(len(columns), bool) if shadowless is None
+                           else np.asarray(shadowless, bool)[self.rows])
         self.notes = []
 
     @classmethod
     def of(cls, materials: list, world_volume: Optional[list] = None, geometry=None) -> Optional["Media"]:
         """The media of a scene's material records (each with `volume`, a list of closures, `volume_only`, and for a
         heterogeneous medium `volume_space`), the default material last, and the world's Volume
-        closures; None when no medium is anywhere. geometry: the render's (its origin and each heterogeneous
-        medium's box of triangles), or None."""
+        closures; None when no medium is anywhere. geometry: the render's (its origin, each heterogeneous
+        medium's box of triangles, and the objects whose Object Info a volume graph reads: `per_object`), or None."""
         from . import field as field_
-        fields = {}
+        fields, keyed = {}, {}
         for row, m in enumerate(materials):
             entries = getattr(m, "volume", None)
-            if entries and field_.linked(entries):
+            if entries and field_.linked(entries) and geometry is not None and reads_object(entries):
+                keyed[row] = per_object(entries, getattr(m, "volume_space", None), geometry, row)
+            elif entries and field_.linked(entries):
                 fields[row] = field_.Field(entries, getattr(m, "volume_space", None),
                                            None if geometry is None else geometry.origin,
                                            None if geometry is None else material_bounds(geometry, row))
-        media = [(NOTHING if row in fields else medium_of(m.volume)) if getattr(m, "volume", None) else None
-                 for row, m in enumerate(materials)]
+        media = [(NOTHING if row in fields or row in keyed else medium_of(m.volume))
+                 if getattr(m, "volume", None) else None for row, m in enumerate(materials)]
         world_field = world_field_of(world_volume, geometry) if world_volume and field_.linked(world_volume) else None
         world = medium_of(world_volume) if world_volume and world_field is None else None
         boundary = [bool(getattr(m, "volume_only", False)) for m in materials]
         if all(medium is None for medium in media) and world is None and world_field is None:
             return None
         hidden, seen = shadow_visibility(geometry, [medium is not None for medium in media])
-        made = cls(media, boundary, world, fields, hidden & ~seen, world_field)
+        objects = 0 if geometry is None else len(geometry.instance_random)
+        made = cls(media, boundary, world, fields, hidden & ~seen, world_field, keyed, objects)
         if world_field is not None:
             made.notes.append(WORLD_MEDIUM_NOTE)
         if (hidden & seen).any():
@@ -304,6 +328,26 @@ class Media:
                               "seen by them; Primer's shadow rays cross it everywhere (Cycles passes it only "
                               "inside the hidden objects)")
         return made
+
+    def objects_of(self, geometry, prim: np.ndarray) -> Optional[np.ndarray]:
+        """The objects (k,) int64 (Scene.instances entries, geometry.owners) of the hit triangles `prim` (k,) int64
+        where some medium is kept per object (column_of needs them), else None (no need to look)."""
+        if not (self.keyed >= 0).any():
+            return None
+        return geometry.owners(np.asarray(prim, np.int64))
+
+    def column_of(self, material: np.ndarray, objects: Optional[np.ndarray] = None) -> np.ndarray:
+        """The column (k,) int64 of the medium a surface of material rows `material` (k,) on objects `objects` (k,)
+        int64 (objects_of; None where no medium is kept per object) bounds: -1 where it bounds none (C:
+        media.c medium_column)."""
+        column = self.column[material]
+        keyed = self.keyed[material]
+        mine = np.flatnonzero(keyed >= 0)
+        if len(mine):
+            column = column.copy()
+            owner = np.asarray(objects, np.int64)[mine]
+            column[mine] = np.where(owner >= 0, self.object_column[keyed[mine], np.maximum(owner, 0)], -1)
+        return column
 
     @property
     def heterogeneous(self) -> bool:
@@ -345,6 +389,8 @@ class Media:
             emission=contiguous(self.emission, np.float64), sigma_s=contiguous(self.sigma_s, np.float64),
             g=contiguous(self.g, np.float64), phase=contiguous(self.phase, np.int32),
             parameters=contiguous(self.parameters, np.float64), column=contiguous(self.column, np.int32),
+            keyed=contiguous(self.keyed, np.int32), object_column=contiguous(self.object_column, np.int32),
+            objects=int(self.object_column.shape[1]),
             boundary=contiguous(self.boundary, np.int32), shadowless=contiguous(self.shadowless, np.int32),
             world_sigma_t=np.asarray(self.world.sigma_t, np.float64),
             world_emission=np.asarray(self.world.emission, np.float64),
@@ -360,9 +406,9 @@ class Media:
         from . import field as field_
         if not self.fields:
             return dict(fields=None, field_low=np.zeros(3), field_high=np.zeros(3), field_step=1.0)
-        chain = None
+        chain, shared = None, {}                # (the fields of one program share its tables: per_object)
         for field, column in reversed(list(zip(self.fields, self.field_columns))):
-            chain = field_.field_record(field, int(column), chain)
+            chain = field_.field_record(field, int(column), chain, shared)
         return dict(fields=chain, field_low=np.min([f.low for f in self.fields], axis=0),
                     field_high=np.max([f.high for f in self.fields], axis=0),
                     field_step=min(f.step for f in self.fields))
@@ -410,12 +456,13 @@ class Media:
                        parameters, inside)
 
     def crossed(self, inside: np.ndarray, material: np.ndarray, backfacing: np.ndarray,
-                crossing: np.ndarray) -> np.ndarray:
-        """The stacks (k, V) of rays that cross (crossing (k,) bool) surfaces of `material` (k,) rows: entering the
-        material's medium through a front face, leaving it through a back face (backfacing (k,) bool); a copy.
+                crossing: np.ndarray, objects: Optional[np.ndarray] = None) -> np.ndarray:
+        """The stacks (k, V) of rays that cross (crossing (k,) bool) surfaces of `material` (k,) rows on `objects`
+        (k,) (objects_of): entering the medium the surface bounds (column_of) through a front face, leaving it through
+        a back face (backfacing (k,) bool); a copy.
         Leaving a medium the ray is not in changes nothing (Cycles' volume_stack_enter_exit)."""
         inside = inside.copy()
-        column = self.column[material]
+        column = self.column_of(material, objects)
         rows = np.flatnonzero(crossing & (column >= 0))
         if len(rows):
             step = np.where(backfacing[rows], -1, 1).astype(np.int16)
@@ -424,19 +471,24 @@ class Media:
         return inside
 
 
-# The most media (volume materials) a render's compiled kernel keeps a stack of per ray (core/volumes/media.c): a
-# scene with more renders through the Python reference.
-MAX_MEDIA = schema.constant("MAX_MEDIA", 16, "the most volume materials the compiled kernel's volume stack holds")
+# The most media (columns: volume materials, and the media of one kept per object) a ray is in at once in the compiled
+# kernel's volume stack (core/volumes/media.c, sparse: a render may have any number of media); one more it enters
+# is left out, as Cycles leaves out what its stack (30 objects' media) has no room for. The Python reference's stacks
+# (Media.crossed, dense) have room for all.
+MAX_MEDIA = schema.constant("MAX_MEDIA", 16, "the most media a ray is in at once in the compiled volume stack")
 
 MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media (core/volumes/media.py Media.tables), for media.c.", [
-    ("count", I64, "V: the volume materials (columns), at most MAX_MEDIA"),
+    ("count", I64, "V: the media (columns: per volume material, or per object: Media.column_of)"),
     ("sigma_t", ptr(F64), "(V, 3) each column's extinction sigma_a + sigma_s"),
     ("emission", ptr(F64), "(V, 3) each column's emission per unit length"),
     ("sigma_s", ptr(F64), "(V, 3) each column's scattering coefficient"),
     ("g", ptr(F64), "(V,) each column's Henyey-Greenstein anisotropy (another phase function's mean cosine)"),
     ("phase", ptr(I32), "(V,) each column's phase function (PHASE_...)"),
     ("parameters", ptr(F64), "(V, PHASE_PARAMETERS) and its numbers (phase.Phase.parameters)"),
-    ("column", ptr(I32), "(m + 1,) each material row's column, -1 where it has no volume"),
+    ("column", ptr(I32), "(m + 1,) each material row's column, -1 where it has no volume (or keeps it per object)"),
+    ("keyed", ptr(I32), "(m + 1,) each material row's row of object_column (media kept per object), -1: none"),
+    ("object_column", ptr(I32), "(K, objects) the column of the medium object o holds of keyed material k, or -1"),
+    ("objects", I64, "the Scene.instances entries (object_column's row length)"),
     ("boundary", ptr(I32), "(m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface)"),
     ("shadowless", ptr(I32), "(V,) 1: shadow rays pass the column's medium (its objects hide from them)"),
     ("world_sigma_t", F64, 3, "the world's medium's extinction (0: none)"),
@@ -606,6 +658,95 @@ def material_bounds(geometry, row: int) -> tuple:
     if not np.isfinite(low).all():
         return geometry.bounds()
     return low, high
+
+
+# The nodes whose outputs are the object's own, not the point's (its row of geometry.instance_info, its random
+# number): a volume graph that reads one keeps a medium per object (Cycles' volume stack holds (object, shader) pairs).
+OBJECT_NODES = ("OBJECT_INFO", "INSTANCE_ATTRIBUTE", "PARTICLE_INFO")
+# The nodes that read nothing of the point they run at: a volume graph of these alone over the object's nodes is one
+# constant medium per object (Beer-Lambert, no march).
+POINTLESS_NODES = frozenset(("VALUE", "RGB", "VECTOR", "MATH", "MIX", "RAMP", "INVERT", "HSV", "CLAMP", "MAP_RANGE",
+                             "SEPARATE_COLOR", "SEPARATE_XYZ", "COMBINE_COLOR", "COMBINE_XYZ", "SCALE", "LIGHT_PATH",
+                             "VECTOR_MATH", "VECTOR_ROTATE", "GAMMA", "BRIGHT_CONTRAST", "RGB_TO_BW", "BLACKBODY",
+                             "WAVELENGTH", "SEPARATE_COLOR_MODE", "COMBINE_COLOR_MODE", "RGB_CURVES",
+                             "VECTOR_CURVES", "FLOAT_CURVE", "MAP_RANGE_VECTOR") + OBJECT_NODES)
+
+
+def _links(entries: list) -> list:
+    """Every Link under a Volume output's closures [(name, weight, inputs)] (graph.links_under), factors included."""
+    from ..materials import graph as graph_
+    nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
+             for name, weight, inputs in entries]
+    return list(graph_.links_under(nodes))
+
+
+def reads_object(entries: list) -> bool:
+    """Whether a Volume output's closures [(name, weight, inputs)] read their object's Object Info (other than its
+    Material Index, the material's own constant), an Object or Instancer attribute or Particle Info: then their
+    medium is kept per object (`per_object`)."""
+    return any(link.node.kind in OBJECT_NODES and not (link.node.kind == "OBJECT_INFO"
+                                                       and link.output == "Material Index")
+               for link in _links(entries))
+
+
+def per_object(entries: list, space, geometry, row: int) -> list:
+    """The media of material `row`'s Volume closures [(name, weight, inputs)], whose graph reads the object's Object
+    Info (reads_object), on the objects of `geometry` that hold its triangles: [(owners (j,) int64, Coefficients,
+    Field or None)], one per group of objects whose Object Info row and Random are alike (a column of Media each).
+    A graph of POINTLESS_NODES alone is one homogeneous medium per group: its closures' inputs read at one point
+    with that Object Info (Field.closures, every group's at once), then medium_of (as a constant graph); any other
+    is a Field per group (marched; its program compiled once, Field.placed), reading that Object Info, its Object
+    coordinates in that object's space (objects that read alike but are placed differently are groups apart), and
+    bounded by the group's triangles. space: the material's volume_space (its texture space and grids)."""
+    from . import field as field_
+    objects = len(geometry.instance_random)
+    low, high = np.full((objects, 3), np.inf), np.full((objects, 3), -np.inf)
+    for prims, triangles in triangle_chunks(geometry):         # (one pass: each object's box of these triangles)
+        mine = np.flatnonzero(triangles.material == row)
+        if len(mine):
+            owner = np.repeat(geometry.owners(prims[mine]), 3)
+            corners = triangles.corners[mine].reshape(-1, 3)
+            keep = owner >= 0
+            np.minimum.at(low, owner[keep], corners[keep])
+            np.maximum.at(high, owner[keep], corners[keep])
+    owners = np.flatnonzero(np.isfinite(low[:, 0]))
+    if len(owners) == 0:
+        return []
+    info = geometry.instance_info[owners] if len(geometry.instance_info) else np.zeros((len(owners), 8))
+    random = geometry.instance_random[owners]
+    constant = all(link.node.kind in POINTLESS_NODES for link in _links(entries))
+    # Each object's world-to-object matrix (its linear part and Location: a field's Object coordinates are its own).
+    linear = (geometry.instance_linear[owners] if len(geometry.instance_linear)
+              else np.broadcast_to(np.eye(3), (len(owners), 3, 3)))
+    flat = ~(np.abs(np.linalg.det(linear)) > 1e-300)      # (a flattened object: its own space has no inverse)
+    placement = np.concatenate([np.where(flat[:, None, None], np.eye(3), linear), info[:, :3, None]], axis=2)
+    to_object = np.linalg.inv(np.concatenate([placement, np.broadcast_to([[[0.0, 0.0, 0.0, 1.0]]],
+                                                                          (len(owners), 1, 4))], axis=1))[:, :3]
+    keys = np.concatenate([info, random[:, None]] + ([] if constant else [linear.reshape(-1, 9)]), axis=1)
+    _, first, group = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    group = np.asarray(group).reshape(-1)
+    order = np.argsort(first)                          # (the groups in the order of their first object)
+    field = field_.Field(entries, space, geometry.origin, None, info=info[0], random=float(random[0]))
+    if not constant:
+        # (each object's field in its own box, marched in pieces as the material's one field would be: the box of all
+        # these objects' triangles / STEPS_ACROSS, not each small box's, which would cut every ray finer)
+        step = max(float(np.linalg.norm(high[owners].max(axis=0) - low[owners].min(axis=0))), 1e-6) / field_.STEPS_ACROSS
+        return [(owners[group == g], NOTHING,
+                 field.placed(info[first[g]], float(random[first[g]]),
+                              (low[owners[group == g]].min(axis=0), high[owners[group == g]].max(axis=0)),
+                              to_object[first[g]], step))
+                for g in order]
+    fixed = [[] for _ in order]                        # (each group's closures, their linked inputs read there)
+    for k, _, values in field.closures(np.zeros((len(order), 3)), info[first[order]], random[first[order]]):
+        name, weight, inputs = entries[k]
+        for j in range(len(order)):
+            given = {key: value for key, value in inputs.items() if key not in field.slots[k] and key != "factors"}
+            for key in field.slots[k]:                  # (the linked inputs, as the constants they are here)
+                value = np.asarray(values[key][j], np.float64)
+                given[key] = float(value[0]) if len(value) == 1 else value
+            factor = float(np.asarray(values["factor"]).reshape(-1)[j]) if "factor" in values else 1.0
+            fixed[j].append((name, float(weight) * factor, given))
+    return [(owners[group == g], medium_of(fixed[j]), None) for j, g in enumerate(order)]
 
 
 # Cycles' box of the world's medium: +-WORLD_REACH around the world's origin on each axis (scene/volume.cpp: "World

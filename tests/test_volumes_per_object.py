@@ -1,0 +1,211 @@
+"""Media kept per object (issue 35): a volume material whose graph reads the object's Object Info (Random, Color...)
+sets up one medium per object that holds it, as Cycles' volume stack holds (object, shader) pairs
+(src/kernel/integrator/volume_stack.h; shader_setup_from_volume sets sd->object from the stack entry). Held to
+closed forms in both kernels: two boxes sharing one absorbing material whose density Object Info drives let through
+exp(-sigma_t(object) d) each, homogeneous (the graph reads nothing of the point: one constant per object) and
+heterogeneous (a field that also reads the point's height, in each object's own coordinates); a box nested in another of the same material adds its
+own medium to the outer one's; more media than a ray is in at once in the compiled stack (MAX_MEDIA) still render
+compiled, said once."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.camera import Camera
+from core.geometry import primitives
+from core.materials import Material
+from core.materials.graph import GraphNode, Link
+from core.render import prepare, render
+from core.scene import RenderSettings, Scene
+from core.scene.scene import Instance
+from core.volumes import MAX_MEDIA
+
+COLOR = np.array([0.2, 0.5, 0.8])
+GLOW = np.array([1.0, 2.0, 0.5])
+
+
+def camera_above() -> Camera:
+    """An orthographic camera 3 above the origin looking straight down at x, y in [-1, 1]."""
+    matrix = np.eye(4)
+    matrix[2, 3] = 3.0
+    return Camera(matrix_world=matrix, type="ORTHO", ortho_scale=2.0, clip_start=0.1, clip_end=20.0)
+
+
+def object_info(output: str) -> Link:
+    """A graph: the object's Object Info `output` as one float (Color through Separate Color's Red)."""
+    info = Link(GraphNode("OBJECT_INFO", {"material_index": 0.0}), output)
+    if output == "Color":
+        return Link(GraphNode("SEPARATE_COLOR", {}, {"Color": info}), "Red")
+    return info
+
+
+def times(a, b) -> Link:
+    """A graph: a x b (Math > Multiply)."""
+    return Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": a, "1": b}), "Value")
+
+
+def height(scale: float, offset: float) -> Link:
+    """A graph: scale x (the point's object z) + offset."""
+    z = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(GraphNode("TEXCOORD"), "Object")}), "Z")
+    return Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": z, "1": scale, "2": offset}), "Value")
+
+
+def shared(density) -> Material:
+    """The volume-only absorbing material both boxes hold, its density the graph `density`."""
+    return Material(np.zeros(3), "Shared", nodes=[("TRANSPARENT", np.ones(3), {})],
+                    volume=[("ABSORPTION", 1.0, {"color": COLOR, "density": density})], volume_only=True)
+
+
+def place(scene: Scene, box, value: float, output: str) -> None:
+    """Add `box` (a mesh) holding material 1, its Object Info `output` (Random, or Color's red) set to `value`."""
+    scene.add_mesh(box, materials=np.array([1]), name=f"Box {len(scene.instances)}")
+    if output == "Random":
+        scene.instances[-1].random = value
+    else:
+        scene.instances[-1].color = (value, 0.3, 0.9, 1.0)
+
+
+def two_boxes(density, values=(0.25, 0.75), output: str = "Random") -> Scene:
+    """A glowing floor (GLOW) at z = 0 under two boxes from z = 0.5 to 1.5 side by side (x < 0 and x > 0) holding
+    one shared medium; each box's Object Info `output` the value of `values` in turn."""
+    scene = Scene(camera=camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=GLOW))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(shared(density))
+    for value, x in zip(values, (-1.0, 1.0)):
+        place(scene, primitives.box((2.0, 4.0, 1.0), center=(x, 0.0, 1.0)), value, output)
+    return scene
+
+
+def halves(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """A 4 x 4 image whose two left columns are `left` (3,) and two right ones `right`."""
+    image = np.empty((4, 4, 3))
+    image[:, :2], image[:, 2:] = left, right
+    return image
+
+
+def rendered(scene: Scene, kernels: str) -> tuple:
+    """The scene at 4 x 4, 2 samples, by the path tracer in `kernels`: (RGB (4, 4, 3), stats)."""
+    result = render(scene, RenderSettings(width=4, height=4, samples=2, integrator="path", kernels=kernels))
+    assert (result.stats.kernels == "compiled") == (kernels == "compiled"), result.stats.kernels
+    return result.image[..., :3], result.stats
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("output, scale", [("Random", 4.0), ("Color", 5.0)])
+def test_two_boxes_of_one_material_whose_density_is_their_object_info_keep_exp_of_their_own_sigma_t(
+        output, scale, kernels):
+    """Density = scale x Object Info (Random 0.25 and 0.75, or Color's red 0.2 and 0.6): sigma_t 1 and 3 x (1 -
+    colour) over the boxes' depth 1, each its own medium (Primer used to read 0 there: no medium at all); the graph
+    reads nothing of the point, so each is one constant medium (no field to march), with nothing to say."""
+    values = (0.25, 0.75) if output == "Random" else (0.2, 0.6)
+    scene = two_boxes(times(object_info(output), scale), values, output)
+    image, stats = rendered(scene, kernels)
+    expected = halves(GLOW * np.exp(-1.0 * (1.0 - COLOR)), GLOW * np.exp(-3.0 * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
+    assert not any("Shared" in w or "volume" in w for w in stats.warnings), stats.warnings
+    media = prepare(scene, RenderSettings(width=4, height=4)).extra["media"]
+    assert len(media.g) == 2 and not media.fields                  # (two constant media, one per box)
+    np.testing.assert_allclose(media.sigma_t, [1.0 * (1.0 - COLOR), 3.0 * (1.0 - COLOR)])
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_two_boxes_of_one_heterogeneous_material_scaled_by_their_random_keep_exp_of_their_own_integrals(kernels):
+    """Density = Random x 1.6 x (2 z + 0.5) from z = 0.5 to 1.5 (its integral 2.5): Random 0.25 and 0.75 give
+    optical depths 1 and 3 x (1 - colour), each box its own field (marched; a linear density is exact)."""
+    scene = two_boxes(times(times(object_info("Random"), 1.6), height(2.0, 0.5)))
+    image, stats = rendered(scene, kernels)
+    expected = halves(GLOW * np.exp(-1.0 * (1.0 - COLOR)), GLOW * np.exp(-3.0 * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
+    assert not any("Shared" in w for w in stats.warnings), stats.warnings
+    media = prepare(scene, RenderSettings(width=4, height=4)).extra["media"]
+    assert len(media.fields) == 2 and [f.random for f in media.fields] == [0.25, 0.75]
+
+
+def test_objects_whose_object_info_reads_alike_share_one_medium():
+    """Two boxes of the same Random (and Color, pass index...) are one medium: a column per distinct Object Info."""
+    scene = two_boxes(times(object_info("Random"), 4.0), values=(0.5, 0.5))
+    media = prepare(scene, RenderSettings(width=4, height=4)).extra["media"]
+    assert len(media.g) == 1
+    np.testing.assert_allclose(rendered(scene, "compiled")[0], halves(*[GLOW * np.exp(-2.0 * (1.0 - COLOR))] * 2),
+                               rtol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_box_nested_in_another_of_the_same_material_adds_its_own_medium_to_the_outer_ones(kernels):
+    """An outer box (Random 0.25: density 1) from z = 0.5 to 1.5 over the whole view, and inside its right half an
+    inner box (Random 0.75: density 3) from z = 0.75 to 1.25: the left keeps exp(-1 (1 - colour)), the right
+    exp(-(1 + 3 x 0.5) (1 - colour)): leaving the inner box's medium leaves the outer one's on the stack (one medium
+    per material would have counted the same column twice at one density)."""
+    scene = Scene(camera=camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=GLOW))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(shared(times(object_info("Random"), 4.0)))
+    place(scene, primitives.box((4.0, 4.0, 1.0), center=(0.0, 0.0, 1.0)), 0.25, "Random")
+    place(scene, primitives.box((2.0, 3.0, 0.5), center=(1.0, 0.0, 1.0)), 0.75, "Random")
+    image, _ = rendered(scene, kernels)
+    expected = halves(GLOW * np.exp(-1.0 * (1.0 - COLOR)), GLOW * np.exp(-2.5 * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
+
+
+def test_more_objects_media_than_a_ray_is_in_at_once_render_compiled_to_the_references_pixels_and_say_so_once():
+    """MAX_MEDIA boxes of distinct Random sharing one such material render compiled with nothing to say; one more
+    too (the compiled volume stack is sparse, as Cycles': any number of media, MAX_MEDIA at once along a ray), to the
+    Python reference's pixels, with one warning that says how many media and why."""
+    scene = two_boxes(times(object_info("Random"), 4.0), values=())
+    settings = dict(width=4, height=4, samples=1, integrator="path")
+    for k in range(int(MAX_MEDIA) + 1):
+        if k == int(MAX_MEDIA):
+            result = render(scene, RenderSettings(**settings))
+            assert result.stats.kernels == "compiled" and not result.stats.warnings, result.stats
+        place(scene, primitives.box((0.3, 0.3, 0.3), center=(0.4 * (k % 5) - 0.8, 0.4 * (k // 5) - 0.6, 1.0)),
+              0.05 * (k + 1), "Random")
+    compiled = render(scene, RenderSettings(**settings))
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    assert compiled.stats.kernels == "compiled"
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+    assert len(np.unique(compiled.image[..., 0])) > 3                 # (boxes of different densities seen)
+    notes = [w for w in compiled.stats.warnings if "volumes" in w]
+    assert len(notes) == 1 and "17 media (17 of them kept per object" in notes[0], notes
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_ray_in_more_media_at_once_than_the_compiled_stack_holds_leaves_the_innermost_out_there(kernels):
+    """MAX_MEDIA + 1 nested boxes centred at z = 1 (box k: Random 0.01 (k + 1), density 4 x Random, 2 - 0.05 k wide
+    and half that high): a ray down the middle is in each box over its height, the media adding. The Python
+    reference's stacks hold them all: exp(-sum of density_k height_k (1 - colour)); the compiled stack holds
+    MAX_MEDIA at once and, as Cycles does where its stack is full, leaves out the one entered last (the innermost)."""
+    scene = two_boxes(times(object_info("Random"), 4.0), values=())
+    n = int(MAX_MEDIA) + 1
+    sizes = 2.0 - 0.05 * np.arange(n)
+    for k, size in enumerate(sizes):
+        place(scene, primitives.box((size, size, size / 2.0), center=(0.0, 0.0, 1.0)), 0.01 * (k + 1), "Random")
+    held = n if kernels == "numpy" else n - 1
+    tau = float(np.sum((4.0 * 0.01 * (np.arange(n) + 1) * sizes / 2.0)[:held]))
+    image, _ = rendered(scene, kernels)
+    middle = image[1:3, 1:3]                    # (x, y = +-0.25: inside the innermost box, 1.2 wide)
+    # (rtol 2e-4: the ray steps off each of its 34 surfaces by their robust offset, shortening the depths a little;
+    # the innermost medium left out is 30 % of the light)
+    np.testing.assert_allclose(middle, np.broadcast_to(GLOW * np.exp(-tau * (1.0 - COLOR)), middle.shape), rtol=2e-4)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_field_kept_per_object_reads_each_objects_own_object_coordinates(kernels):
+    """The same box mesh placed twice by matrices (at x = -1 and, lifted by 0.25, at x = 1: z from 0.75 to 1.75)
+    with density Random x 1.6 x (2 z_object + 1.5), z_object from -0.5 to 0.5 in each (its integral 1.5): each box
+    keeps exp(-1.6 Random 1.5 (1 - colour)) whatever its height, as Cycles reads each object's own coordinates (the
+    world's z would give the lifted box 1.6 Random 2.0)."""
+    scene = Scene(camera=camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=GLOW))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(shared(times(times(object_info("Random"), 1.6), height(2.0, 1.5))))
+    mesh = primitives.box((2.0, 4.0, 1.0))
+    for x, z, value in ((-1.0, 1.0, 0.25), (1.0, 1.25, 0.75)):
+        matrix = np.eye(4)
+        matrix[:3, 3] = (x, 0.0, z)
+        scene.meshes.append(mesh)
+        scene.instances.append(Instance(len(scene.meshes) - 1, matrix, np.array([1]), f"Box {x}"))
+        scene.instances[-1].random = value
+    image, _ = rendered(scene, kernels)
+    expected = halves(GLOW * np.exp(-1.6 * 0.25 * 1.5 * (1.0 - COLOR)), GLOW * np.exp(-1.6 * 0.75 * 1.5 * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
