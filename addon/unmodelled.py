@@ -41,10 +41,6 @@ def render_notes(scene) -> list:
                      "their unbiased mean, as Cycles' default (its own march finer than Cycles' steps)")
     if getattr(cycles, "use_fast_gi", False):
         notes += fast_gi_notes(scene, cycles)
-    scale = float(getattr(cycles, "texture_resolution_render", 1.0))
-    if getattr(render, "use_simplify", False) and abs(scale - 1.0) > 1e-6:
-        notes.append("Cycles 5.2 shrinks image textures by Simplify > Texture Resolution; Primer reads them at full "
-                     "resolution (or Texture Limit's)")
     return notes
 
 
