@@ -855,10 +855,9 @@ def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = N
         if bad.any():
             reader.warn(node, f"{what} has {int(bad.any(axis=-1).sum())} NaN or infinite pixel(s); Primer reads "
                               "them as 0")
-            pixels = np.where(bad, np.float32(0.0), pixels)
-    image_ = textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
-    image_.pixels = textures_.limited(image_.pixels, *_TEXTURE_LIMIT)   # (Simplify's Texture Limit and Resolution)
-    return image_
+            pixels = np.where(bad, pixels.dtype.type(0.0), pixels)
+    pixels = textures_.limited(pixels, *_TEXTURE_LIMIT)     # (Simplify's Texture Limit and Resolution, as Cycles)
+    return textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
 
 
 def sequence_frame(user, scene_frame: int) -> int:
@@ -1163,13 +1162,15 @@ def _oiio_read_bytes(oiio, data: bytes, suffix: str) -> np.ndarray:
 
 def _oiio_read(oiio, path: str) -> np.ndarray:
     """An image file's pixels with OpenImageIO at their stored precision (uint8 for 8-bit files, uint16 for
-    16-bit ones, else float32), flipped to bottom row first."""
+    16-bit ones, float16 for half-float ones, which Cycles keeps as half (textures.limited rounds its means to half;
+    textures.Image reads them as float32, exactly), else float32), flipped to bottom row first."""
     buf = oiio.ImageBuf(path)
     if buf.has_error:
         raise OSError(buf.geterror())
     stored = buf.spec().format.basetype
     kind, dtype = ((oiio.UINT8, np.uint8) if stored == oiio.UINT8 else
-                   (oiio.UINT16, np.uint16) if stored == oiio.UINT16 else (oiio.FLOAT, np.float32))
+                   (oiio.UINT16, np.uint16) if stored == oiio.UINT16 else
+                   (oiio.HALF, np.float16) if stored == oiio.HALF else (oiio.FLOAT, np.float32))
     pixels = buf.get_pixels(kind)
     if pixels is None or buf.has_error:
         raise OSError(buf.geterror() or "unreadable")

@@ -780,6 +780,18 @@ def test_a_byte_mean_halfway_between_two_bytes_rounds_as_cycles_float32_arithmet
     assert textures.limited(pixels, 0, 0.25)[0, 0, 0] == cycles
 
 
+def test_a_half_float_image_keeps_its_means_rounded_to_half_as_cycles():
+    """A half-float image (float16, as Cycles keeps a half EXR) shrunk by 2: the mean 1 + 2^-12 of a block
+    (1, 1, 1, 1 + 2^-10) is no half, rounded to the nearest, 1; 1 + 3 x 2^-12 rounds to 1 + 2^-10 (measured: a
+    64 x 64 half EXR at Texture Resolution 0.5 renders as Cycles 5.2.3's to 0, where float32 means were 4.9e-4 off,
+    half's precision); a float32 image keeps its float32 mean."""
+    step = 2.0 ** -10
+    half = np.array([[1.0, 1.0 + step, 1.0, 1.0 + 3 * step], [1.0, 1.0, 1.0, 1.0]], np.float16)[:, :, None]
+    shrunk = textures.limited(half, 0, 0.5)
+    assert shrunk.dtype == np.float16 and shrunk[0, :, 0].tolist() == [1.0, 1.0 + step]
+    assert textures.limited(half.astype(np.float32), 0, 0.5)[0, 0, 0] == np.float32(1.0 + step / 4)
+
+
 def test_a_constant_colour_ramp_changes_colour_at_the_first_of_cycles_257_table_points_past_its_stop():
     """Cycles bakes a Color Ramp at i / 256, i = 0 .. 256, and reads entry floor(f x 256): a Constant ramp whose stop
     is at 0.141 (the donut tutorial's sprinkles) shows its first colour up to 37 / 256 = 0.1445, where a 256-entry

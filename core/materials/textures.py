@@ -96,7 +96,7 @@ def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarr
     Cycles' own float32 arithmetic: integers read as value x (1 / 255) (65535; Blender's build turns the division
     into that product: measured, the exact halves of 4 x 4 means then round as Cycles'), summed row by row in
     float32, times 1 / count, rounded back as util_image_cast_from_float rounds them: bytes as Cycles', bit for
-    bit."""
+    bit. Half floats (float16, as Cycles keeps a half-float file) are averaged in float32 and rounded back to half."""
     h, w = pixels.shape[:2]
     scale = reduction(h, w, limit, resolution)
     if scale == 1.0:
@@ -113,6 +113,8 @@ def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarr
             total[:part.shape[0], :part.shape[1]] += part
             count[:part.shape[0], :part.shape[1]] += 1.0
     mean = total * (np.float32(1.0) / count)
+    if pixels.dtype == np.float16:                  # (float_to_half_image: clamped, rounded to nearest even)
+        return np.ascontiguousarray(np.clip(mean, -65504.0, 65504.0).astype(np.float16))
     if top is None:
         return np.ascontiguousarray(mean)
     scaled = np.float32(top) * mean + np.float32(0.5)
