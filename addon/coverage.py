@@ -378,8 +378,8 @@ COVERAGE = {
         NO_EFFECT: {"height intensity use_mist": "EEVEE's mist: Cycles' Mist pass reads only Start, Depth and Falloff"},
     },
     "CyclesWorldSettings": {
-        READ: {"max_bounces sample_map_resolution sampling_method": "export.world_light_settings"},
-        REPORTED: {"is_caustics_light use_shadows*": "unmodelled.world_notes"},
+        READ: {"max_bounces sample_map_resolution sampling_method use_shadows*": "export.world_light_settings"},
+        REPORTED: {"is_caustics_light": "unmodelled.world_notes"},
         NO_EFFECT: {"volume_sampling": NOISE,
                     "homogeneous_volume* volume_interpolation volume_step_size": HETEROGENEOUS},
     },
