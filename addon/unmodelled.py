@@ -151,8 +151,8 @@ def shadowless_world_notes(casts_shadow: bool, sampled: bool, other_lights: bool
     one light per hit among them all (its light tree), which weighs them less."""
     if casts_shadow or not sampled or not other_lights:
         return []
-    return ["the world casts no shadows (World > Settings > Surface > Cast Shadow off) beside other lights: Cycles picks one "
-            "light per hit among them, which weighs the world's unshadowed light samples less than Primer does "
+    return ["the world casts no shadows (World > Settings > Surface > Cast Shadow off) beside other lights: Cycles "
+            "picks one light per hit among them, which weighs the world's unshadowed light samples less than Primer does "
             "(measured: an image sky and an area lamp over a box on a floor, 1.7 % brighter than Cycles, 10 % where "
             "the box hides the sky)"]
 
