@@ -152,9 +152,9 @@ def shadowless_world_notes(casts_shadow: bool, sampled: bool, other_lights: bool
     if casts_shadow or not sampled or not other_lights:
         return []
     return ["the world casts no shadows (World > Settings > Surface > Cast Shadow off) beside other lights: Cycles "
-            "picks one light per hit among them, which weighs the world's unshadowed light samples less than Primer does "
-            "(measured: an image sky and an area lamp over a box on a floor, 1.7 % brighter than Cycles, 10 % where "
-            "the box hides the sky)"]
+            "picks one light per hit among them, which weighs the world's unshadowed light samples less than Primer "
+            "does (measured: an image sky and an area lamp over a box on a floor, 1.7 % brighter than Cycles, 10 % "
+            "where the box hides the sky)"]
 
 
 def material_notes(material) -> list:
