@@ -214,3 +214,17 @@ def test_a_world_without_shadows_lights_a_covered_floor_by_the_mis_weight_of_one
     assert 0.3 < expected < 0.36                    # (four samples' weights would give about 1.03)
     assert abs(image.mean() / expected - 1.0) < 0.02, (image.mean(), expected)
     assert render(sky_under_a_ceiling(True), settings).image[..., :3].max() < 1e-3
+
+
+def test_mis_weighs_a_shadowless_or_bounce_limited_lights_samples_as_one_like_cycles():
+    """vertex.mis_count: a light that casts no shadow or has a Max Bounces is weighed by MIS as one sample per hit
+    (Cycles' count), whatever Light Samples; any other keeps its light_count (the weights sum to one either way)."""
+    from types import SimpleNamespace
+    from core.integrators.vertex import light_count, mis_count
+    ctx = SimpleNamespace(settings=SimpleNamespace(light_samples=4), light_numbers=None)
+    lamp = AreaLight(center=np.zeros(3), axis_u=np.array([1.0, 0.0, 0.0]), axis_v=np.array([0.0, 1.0, 0.0]),
+                     direction=np.array([0.0, 0.0, -1.0]), power=10.0)
+    assert light_count(ctx, lamp) == mis_count(ctx, lamp) == 4
+    assert mis_count(ctx, dataclasses.replace(lamp, cast_shadow=False)) == 1
+    assert mis_count(ctx, dataclasses.replace(lamp, max_bounces=0)) == 1
+    assert light_count(ctx, dataclasses.replace(lamp, cast_shadow=False)) == 4

@@ -580,11 +580,11 @@ INLINE double power_heuristic(double a, double b)
     return w == w ? w : 0.0;
 }
 
-/* The count MIS weighs a light's samples as: its samples, or 1 for a light that casts no shadow, as Cycles weighs
- * its one sample per hit (vertex.mis_count). */
+/* The count MIS weighs a light's samples as: its samples, or 1 for a light that casts no shadow or has a Max Bounces,
+ * as Cycles weighs its one sample per hit (vertex.mis_count). */
 INLINE double mis_samples(const LightRecord *light)
 {
-    return light->cast_shadow != 0 ? (double)light->samples : 1.0;
+    return light->cast_shadow != 0 && light->max_bounces >= 1024 ? (double)light->samples : 1.0;
 }
 
 /* How a render finds lights with extent: SAMPLE_* (RenderSettings.light_sampling, core/integrators/compiled.py). */
