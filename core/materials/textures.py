@@ -105,14 +105,12 @@ def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarr
     oh, ow = max(int(np.float32(h) * np.float32(scale)), 1), max(int(np.float32(w) * np.float32(scale)), 1)
     top = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(pixels.dtype)
     values = pixels.astype(np.float32) * (np.float32(1.0) / np.float32(top)) if top else pixels.astype(np.float32)
-    total = np.zeros((oh, ow) + pixels.shape[2:], np.float32)
-    count = np.zeros((oh, ow) + (1,) * (pixels.ndim - 2), np.float32)
-    for dy in range(k):                             # (Cycles' order: rows of the block, then texels of a row)
-        for dx in range(k):
-            part = values[dy::k, dx::k][:oh, :ow]   # (a side shorter than k: Cycles averages what there is)
-            total[:part.shape[0], :part.shape[1]] += part
-            count[:part.shape[0], :part.shape[1]] += 1.0
-    mean = total * (np.float32(1.0) / count)
+    if values.ndim == 2:
+        values = values[:, :, None]
+    kh, kw = min(k, h), min(k, w)                   # (a side shorter than k: Cycles averages what there is)
+    blocks = values[:oh * kh, :ow * kw].reshape(oh, kh, ow, kw, -1).transpose(0, 2, 1, 3, 4).reshape(oh, ow, kh * kw, -1)
+    total = np.cumsum(blocks, axis=2, dtype=np.float32)[:, :, -1]     # (sequential: Cycles' order, rows then texels)
+    mean = (total * (np.float32(1.0) / np.float32(kh * kw))).reshape((oh, ow) + pixels.shape[2:])
     if pixels.dtype == np.float16:                  # (float_to_half_image: clamped, rounded to nearest even)
         return np.ascontiguousarray(np.clip(mean, -65504.0, 65504.0).astype(np.float16))
     if top is None:
