@@ -141,6 +141,9 @@ COVERAGE = {
                                                                     "threshold keeps a camera path clear)",
                "texture_limit_render texture_limit": "materials.texture_limit_of (Simplify > Texture Limit: images "
                                                      "halved as Cycles halves them, textures.limited)",
+               "texture_resolution_render* texture_resolution*": "materials.texture_resolution_of (Simplify > "
+                   "Texture Resolution, Blender 5.2: images shrunk by its power of 2 as Cycles shrinks them, "
+                   "textures.limited)",
                "use_camera_cull camera_cull_margin use_distance_cull distance_cull_margin":
                    "export.object_culling (Simplify > Culling: objects left out as Cycles' sync leaves them)",
                "film_exposure": "export.film_exposure: Combined and the passes of light scaled (core render.expose)",
@@ -155,8 +158,7 @@ COVERAGE = {
                "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
-        REPORTED: {"texture_resolution_render*": "unmodelled.render_notes",
-                   "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
+        REPORTED: {"dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
                    "volume_biased*": "unmodelled.render_notes (Primer renders heterogeneous media's unbiased mean)"},
         NO_EFFECT: {"auto_scrambling_distance direct_light_sampling_type guiding_directional_sampling_type "
@@ -170,7 +172,7 @@ COVERAGE = {
                     "ao_bounces preview_adaptive_min_samples preview_adaptive_threshold preview_denoiser "
                     "preview_denoising_input_passes preview_denoising_prefilter preview_denoising_quality "
                     "preview_denoising_start_sample preview_denoising_use_gpu preview_dicing_rate preview_pause "
-                    "preview_samples preview_scrambling_distance texture_resolution* "
+                    "preview_samples preview_scrambling_distance "
                     "use_preview_adaptive_sampling use_preview_denoising volume_preview_step_rate": VIEWPORT_RENDER,
                     "debug_bvh_layout debug_bvh_time_steps debug_bvh_type debug_texture_cache_preserve_unused* "
                     "debug_use_compact_bvh debug_use_cpu_avx2 debug_use_cpu_sse42 debug_use_cuda_adaptive_compile "
@@ -376,8 +378,8 @@ COVERAGE = {
         NO_EFFECT: {"height intensity use_mist": "EEVEE's mist: Cycles' Mist pass reads only Start, Depth and Falloff"},
     },
     "CyclesWorldSettings": {
-        READ: {"max_bounces sample_map_resolution sampling_method": "export.world_light_settings"},
-        REPORTED: {"is_caustics_light use_shadows*": "unmodelled.world_notes"},
+        READ: {"max_bounces sample_map_resolution sampling_method use_shadows*": "export.world_light_settings"},
+        REPORTED: {"is_caustics_light": "unmodelled.world_notes"},
         NO_EFFECT: {"volume_sampling": NOISE,
                     "homogeneous_volume* volume_interpolation volume_step_size": HETEROGENEOUS},
     },

@@ -1170,16 +1170,18 @@ def _kernels(scene) -> str:
 
 
 def world_light_settings(world, core: World) -> World:
-    """The core world with the Blender world's Cycles Max Bounces and Sampling (its importance map's size:
-    core/lights/world.py map_size) read into it. (Its Shadows, Blender 5.2's, are noted instead: Primer's image world
-    without shadow rays measured 4 % brighter than Cycles 5.2's, unexplained.)"""
+    """The core world with the Blender world's Cycles Max Bounces, Sampling (its importance map's size:
+    core/lights/world.py map_size) and Shadows (Blender 5.2's: without them its light samples trace no shadow ray, as
+    Cycles' background light without cast_shadow; its samples weighed as Cycles' one: vertex.mis_count)
+    read into it."""
     cycles = getattr(world, "cycles", None)
     if cycles is None:
         return core
     environments, suns, guided = world_map_sources(world)
     size = lights_world.map_size(str(getattr(cycles, "sampling_method", "AUTOMATIC")),
                                  int(getattr(cycles, "sample_map_resolution", 1024)), environments, suns, guided)
-    return dataclasses.replace(core, max_bounces=int(getattr(cycles, "max_bounces", 1024)), map_size=size)
+    return dataclasses.replace(core, max_bounces=int(getattr(cycles, "max_bounces", 1024)), map_size=size,
+                               cast_shadow=bool(getattr(cycles, "use_shadows", True)))
 
 
 def world_map_sources(world) -> tuple:
@@ -1626,8 +1628,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     camera = export_camera(camera_eval, warnings)
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
-    materials_.begin_export(scene.frame_current, depsgraph.view_layer,
-                            materials_.texture_limit_of(scene, depsgraph.mode == "RENDER"))
+    final = depsgraph.mode == "RENDER"
+    materials_.begin_export(scene.frame_current, depsgraph.view_layer, materials_.texture_limit_of(scene, final),
+                            materials_.texture_resolution_of(scene, final))
     # What the scene asks of Cycles that Primer does not render, said once (addon/unmodelled.py).
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
     world_object = rendered_world(scene, depsgraph.view_layer, depsgraph)
@@ -1773,9 +1776,11 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                                                 [dataclasses.replace(m, volume_space=volume_spaces[i])
                                                  if i in volume_spaces else m
                                                  for i, m in enumerate(materials.materials)], core.world)
+    lamps = len(core.lights)
     if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)
         for sun in world.suns:          # (seen where the world is: not on a transparent film, unlike a sun lamp)
             sun.camera = world.camera and not scene.render.film_transparent
+            sun.cast_shadow = world.cast_shadow         # (Cycles' sun is its background light's: the world's Shadows)
             core.lights.append(sun)
             groups["lights"].append(groups["world"])
     world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0
@@ -1783,6 +1788,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     emits = any(float(np.max(m.emission)) > 0.0 or m.nodes for m in core.materials)
     if not core.lights and not world_lights and not emits:
         warnings.append("the scene has no lights: only the world colour will be visible")
+    warnings += unmodelled.shadowless_world_notes(world.cast_shadow, world.lights and world.image is not None,
+                                                  lamps > 0 or emits)
     width, height = frame_size(scene.render)
     border = border_rectangle(scene.render, width, height)
     settings = render_settings(scene, width, height, border, aux, passes)

@@ -855,10 +855,9 @@ def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = N
         if bad.any():
             reader.warn(node, f"{what} has {int(bad.any(axis=-1).sum())} NaN or infinite pixel(s); Primer reads "
                               "them as 0")
-            pixels = np.where(bad, np.float32(0.0), pixels)
-    image_ = textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
-    image_.pixels = textures_.limited(image_.pixels, _TEXTURE_LIMIT[0])    # (Simplify > Texture Limit, as Cycles)
-    return image_
+            pixels = np.where(bad, pixels.dtype.type(0.0), pixels)
+    pixels = textures_.limited(pixels, *_TEXTURE_LIMIT)     # (Simplify's Texture Limit and Resolution, as Cycles)
+    return textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
 
 
 def sequence_frame(user, scene_frame: int) -> int:
@@ -913,22 +912,24 @@ _DECODED_NOW: dict = {}
 _DECODED_BEFORE: dict = {}
 
 
-def begin_export(frame: int = 1, view_layer=None, texture_limit: int = 0) -> None:
+def begin_export(frame: int = 1, view_layer=None, texture_limit: int = 0, texture_resolution: float = 1.0) -> None:
     """Forget the images read by an earlier export (a render reads each image once) and the Object and Instancer
     attributes its materials read; read sequences and movies at the scene's `frame`, View Layer attributes from
-    `view_layer` (None: the context's), and images under `texture_limit` (Simplify's, texture_limit_of; 0: none)."""
+    `view_layer` (None: the context's), and images under `texture_limit` (Simplify's, texture_limit_of; 0: none)
+    and at `texture_resolution` (Blender 5.2's Simplify > Texture Resolution, texture_resolution_of; 1: full)."""
     global _DECODED_BEFORE, _DECODED_NOW
     _IMAGES.clear()
     _DECODED_BEFORE, _DECODED_NOW = _DECODED_NOW, {}
     INSTANCE_ATTRIBUTES.clear()
     ATTRIBUTE_NOTES.clear()
     _VIEW_LAYER[0] = view_layer
-    _TEXTURE_LIMIT[0] = int(texture_limit)
+    _TEXTURE_LIMIT[:] = [int(texture_limit), float(texture_resolution)]
     set_frame(frame)
 
 
-# The texture size limit of this export's images (textures.limited), as Cycles' scene params.texture_limit.
-_TEXTURE_LIMIT: list = [0]
+# The texture size limit and resolution of this export's images (textures.limited), as Cycles' scene params
+# texture_limit and texture_resolution.
+_TEXTURE_LIMIT: list = [0, 1.0]
 
 
 def texture_limit_of(scene, final: bool) -> int:
@@ -939,6 +940,16 @@ def texture_limit_of(scene, final: bool) -> int:
         return 0
     value = str(getattr(cycles, "texture_limit_render" if final else "texture_limit", "OFF"))
     return int(value) if value.isdigit() else 0
+
+
+def texture_resolution_of(scene, final: bool) -> float:
+    """Simplify > Texture Resolution (Blender 5.2) as Cycles' sync reads it: with Simplify on, the Render factor for
+    a final render (`final`), the Viewport one else; 1 (full resolution) without Simplify, in Blender 5.0 (which has
+    none) or without Cycles' settings."""
+    cycles = getattr(scene, "cycles", None)
+    if cycles is None or not scene.render.use_simplify:
+        return 1.0
+    return float(getattr(cycles, "texture_resolution_render" if final else "texture_resolution", 1.0))
 
 
 # The Attribute node's Object and Instancer attributes this export's materials read, "OBJECT:name" or
@@ -1151,13 +1162,15 @@ def _oiio_read_bytes(oiio, data: bytes, suffix: str) -> np.ndarray:
 
 def _oiio_read(oiio, path: str) -> np.ndarray:
     """An image file's pixels with OpenImageIO at their stored precision (uint8 for 8-bit files, uint16 for
-    16-bit ones, else float32), flipped to bottom row first."""
+    16-bit ones, float16 for half-float ones, which Cycles keeps as half (textures.limited rounds its means to half;
+    textures.Image reads them as float32, exactly), else float32), flipped to bottom row first."""
     buf = oiio.ImageBuf(path)
     if buf.has_error:
         raise OSError(buf.geterror())
     stored = buf.spec().format.basetype
     kind, dtype = ((oiio.UINT8, np.uint8) if stored == oiio.UINT8 else
-                   (oiio.UINT16, np.uint16) if stored == oiio.UINT16 else (oiio.FLOAT, np.float32))
+                   (oiio.UINT16, np.uint16) if stored == oiio.UINT16 else
+                   (oiio.HALF, np.float16) if stored == oiio.HALF else (oiio.FLOAT, np.float32))
     pixels = buf.get_pixels(kind)
     if pixels is None or buf.has_error:
         raise OSError(buf.geterror() or "unreadable")

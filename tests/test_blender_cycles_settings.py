@@ -421,6 +421,40 @@ def test_a_texture_limit_averages_a_fine_checker_to_grey_as_in_cycles(primer, tm
     assert not [w for w in addon(primer, "engine").last_render.warnings if "texture" in w.lower()]
 
 
+def test_texture_resolution_keeps_the_means_of_2_by_2_blocks_as_in_cycles(primer, tmp_path):
+    """Blender 5.2's Simplify > Texture Resolution 0.75 on a 63 x 63 PNG of random bytes (Non-Color, Closest, an
+    Emission of its colour filling an orthographic view of 62 x 62 pixels): Cycles shrinks it by 0.5, the power of 2
+    below, into 31 x 31 means of 2 x 2 blocks from the bottom-left corner (the top row and the right column dropped),
+    each seen by 2 x 2 pixels, and so does Primer (textures.limited), pixel for pixel; Primer says nothing of it."""
+    if "texture_resolution_render" not in bpy.context.scene.cycles.bl_rna.properties:
+        pytest.skip(f"Simplify > Texture Resolution is not in Blender {bpy.app.version_string}")
+    textures = sys.modules[primer.__name__ + ".core.materials.textures"]
+    scene = new_cycles_file(62, 62)
+    scene.cycles.samples, scene.cycles.filter_width = 4, 0.01
+    scene.primer.settings_source = "CYCLES"
+    texels = np.random.default_rng(33).integers(0, 256, (63, 63, 3)).astype(np.uint8)      # (bottom row first)
+    image = bpy.data.images.new("Random", 63, 63)
+    image.pixels[:] = np.concatenate([texels, np.full((63, 63, 1), 255, np.uint8)], axis=2).ravel() / 255.0
+    image.filepath_raw, image.file_format = str(tmp_path / "random.png"), "PNG"
+    image.save()
+    image = bpy.data.images.load(str(tmp_path / "random.png"))
+    image.colorspace_settings.name = "Non-Color"
+    material, emission = shader_material("Random", "ShaderNodeEmission")
+    texture = material.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation = image, "Closest"
+    material.node_tree.links.new(texture.outputs["Color"], emission.inputs["Color"])
+    plane_under_an_orthographic_camera(scene, 1.0, material)
+    scene.render.use_simplify = True
+    scene.cycles.texture_resolution_render = 0.75
+    images = {engine: render(scene, engine, str(tmp_path / f"{engine}.exr")) for engine in ("PRIMER", "CYCLES")}
+    means = textures.limited(texels, 0, 0.75)
+    assert means.shape == (31, 31, 3)
+    expected = np.repeat(np.repeat(means[::-1], 2, axis=0), 2, axis=1) / np.float32(255.0)     # (top row first)
+    np.testing.assert_allclose(images["CYCLES"], expected, atol=1e-6)
+    np.testing.assert_allclose(images["PRIMER"], images["CYCLES"], atol=1e-6)
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "texture" in w.lower()]
+
+
 def test_transparent_glass_clears_the_film_behind_smooth_glass_as_in_cycles(primer, tmp_path):
     """Film > Transparent with Transparent Glass: a smooth glass sheet (IOR 1.5) filling an orthographic view of a
     white world leaves the film clear by the light it lets through, alpha = R = 0.04 and colour R, in Cycles (measured

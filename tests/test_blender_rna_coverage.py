@@ -118,15 +118,12 @@ CASES = [
     ("CyclesRenderSettings", "scene.cycles", "use_fast_gi", True, [("scene.primer", "settings_source", "PRIMER")],
      "render_notes", "scene", "which have no Fast GI"),
     ("CyclesRenderSettings", "scene.cycles", "volume_biased", True, [], "render_notes", "scene", "Biased volume"),
-    ("CyclesRenderSettings", "scene.cycles", "texture_resolution_render", 0.5,
-     [("scene.render", "use_simplify", True)], "render_notes", "scene", "Texture Resolution"),
     ("ViewLayer", "view_layer", "use_solid", False, [], "view_layer_notes", "view_layer", "Surfaces out"),
     ("ViewLayer", "view_layer", "use_pass_combined", False, [], "view_layer_notes", "view_layer", "Combined pass"),
     ("CyclesRenderLayerSettings", "view_layer.cycles", "denoising_store_passes", True, [], "view_layer_notes",
      "view_layer", "Denoising Data passes"),
     ("Camera", "camera.data", "type", "CUSTOM", [], "camera_notes", "camera", "Custom camera"),
     ("CyclesWorldSettings", "world.cycles", "is_caustics_light", True, [], "world_notes", "world", "shadow caustics"),
-    ("CyclesWorldSettings", "world.cycles", "use_shadows", False, [], "world_notes", "world", "casts no shadows"),
 ]
 
 

@@ -194,7 +194,7 @@ def test_mis_compensation_keeps_a_glossy_planes_light_and_lowers_its_noise(kerne
     scene = glossy_plane_under_the_environment()
 
     def pixels(compensate: bool) -> np.ndarray:
-        monkeypatch.setattr(render, "compensates_world", lambda settings: compensate)
+        monkeypatch.setattr(render, "compensates_world", lambda settings, world: compensate)
         return np.array([render.render(scene, RenderSettings(width=8, height=8, samples=4 if kernels == "numpy" else 16,
                                                              kernels=kernels, adaptive=False, seed=seed)).image[..., :3]
                          for seed in range(8)])

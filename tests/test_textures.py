@@ -729,6 +729,69 @@ def test_a_texture_limit_halves_an_image_into_the_means_of_its_blocks_as_cycles(
     assert textures.limited(checker, 0) is checker and textures.limited(checker, 256) is checker
 
 
+@pytest.mark.parametrize("height, width, limit, resolution, scale", [
+    (64, 64, 0, 1.0, 1.0), (64, 64, 0, 0.5, 0.5), (64, 64, 0, 0.75, 0.5), (62, 62, 0, 0.3, 0.25),
+    (64, 64, 0, 0.25, 0.25), (64, 64, 0, 1e-5, 2.0 ** -17), (256, 256, 128, 1.0, 0.5), (192, 96, 128, 1.0, 0.5),
+    (256, 256, 128, 0.3, 0.25), (192, 192, 128, 0.6, 0.5), (1536, 1024, 1024, 0.9, 0.5), (64, 64, 128, 0.5, 0.5)])
+def test_texture_resolution_and_limit_shrink_an_image_by_the_power_of_2_below_the_smaller_factor(
+        height, width, limit, resolution, scale):
+    """Blender 5.2's Simplify > Texture Resolution with Texture Limit (textures.reduction, Cycles 5.2's
+    device_load_image and load_full): the factor is min(resolution, limit / larger side) rounded down to a power of
+    2, measured in Cycles 5.2.3 for the 64, 62, 256 and 192 texel cases (0.75 and 0.6 shrink by half, 0.3 to a
+    quarter, a limit under the resolution wins)."""
+    assert textures.reduction(height, width, limit, resolution) == scale
+
+
+def test_texture_limit_alone_shrinks_by_the_factor_of_blender_50s_halving_loop():
+    """Without Texture Resolution, Cycles 5.2's factor (the power of 2 below limit / larger side) is Blender 5.0's
+    file_load_image loop (halve until the larger side fits the limit), for every side 1 .. 4100 and limit."""
+    for limit in (128, 256, 512, 1024, 2048, 4096):
+        for side in range(1, 4100):
+            halved = 1.0
+            while side * halved > limit:
+                halved *= 0.5
+            assert textures.reduction(side, 1, limit) == halved, (side, limit)
+
+
+def test_texture_resolution_keeps_the_means_of_whole_blocks_from_the_bottom_left():
+    """Texture Resolution 0.5 on a 5 x 7 float image stored bottom row first (Cycles' order): 2 x 3 texels, each the
+    mean of its 2 x 2 block; the top row and the right column, past whole blocks, dropped (measured: Cycles 5.2.3
+    shrinks a 62 x 62 byte image at 0.3 into 15 x 15 means of 4 x 4 blocks from the bottom-left corner)."""
+    pixels = np.arange(35, dtype=np.float32).reshape(5, 7, 1)
+    half = textures.limited(pixels, 0, 0.5)
+    assert half.shape == (2, 3, 1) and half.dtype == np.float32
+    expected = pixels[:4, :6, 0].reshape(2, 2, 3, 2).mean(axis=(1, 3))
+    np.testing.assert_allclose(half[..., 0], expected, rtol=1e-7)
+    assert textures.limited(pixels, 0, 1.0) is pixels
+    assert textures.limited(pixels, 0, 0.3).shape == (1, 1, 1)          # (4 x 4 blocks: one, of the 4 x 4 there are)
+
+
+@pytest.mark.parametrize("block, cycles", [
+    ([[18, 239, 238, 66], [246, 44, 89, 202], [123, 74, 32, 48], [254, 64, 177, 62]], 124),
+    ([[64, 17, 66, 166], [134, 113, 115, 42], [112, 213, 56, 112], [74, 89, 51, 232]], 104),
+    ([[252, 44, 134, 140], [129, 107, 94, 104], [160, 246, 183, 144], [136, 6, 55, 138]], 130),
+    ([[9, 138, 180, 248], [51, 52, 146, 82], [186, 49, 7, 43], [177, 97, 241, 46]], 109)])
+def test_a_byte_mean_halfway_between_two_bytes_rounds_as_cycles_float32_arithmetic(block, cycles):
+    """A 4 x 4 block of bytes (rows bottom first) whose mean is exactly halfway between two bytes (123.5, 103.5,
+    129.5, 109.5) shrinks at Texture Resolution 0.25 to the byte Cycles 5.2.3 rendered (measured: 825 such halves in a
+    256 x 256 image, 808 up and 17 down, all as textures.limited's float32 arithmetic; division by 255 instead of
+    the product by 1 / 255 rounds the first two down)."""
+    pixels = np.array(block, np.uint8)[:, :, None]
+    assert textures.limited(pixels, 0, 0.25)[0, 0, 0] == cycles
+
+
+def test_a_half_float_image_keeps_its_means_rounded_to_half_as_cycles():
+    """A half-float image (float16, as Cycles keeps a half EXR) shrunk by 2: the mean 1 + 2^-12 of a block
+    (1, 1, 1, 1 + 2^-10) is no half, rounded to the nearest, 1; 1 + 3 x 2^-12 rounds to 1 + 2^-10 (measured: a
+    64 x 64 half EXR at Texture Resolution 0.5 renders as Cycles 5.2.3's to 0, where float32 means were 4.9e-4 off,
+    half's precision); a float32 image keeps its float32 mean."""
+    step = 2.0 ** -10
+    half = np.array([[1.0, 1.0 + step, 1.0, 1.0 + 3 * step], [1.0, 1.0, 1.0, 1.0]], np.float16)[:, :, None]
+    shrunk = textures.limited(half, 0, 0.5)
+    assert shrunk.dtype == np.float16 and shrunk[0, :, 0].tolist() == [1.0, 1.0 + step]
+    assert textures.limited(half.astype(np.float32), 0, 0.5)[0, 0, 0] == np.float32(1.0 + step / 4)
+
+
 def test_a_constant_colour_ramp_changes_colour_at_the_first_of_cycles_257_table_points_past_its_stop():
     """Cycles bakes a Color Ramp at i / 256, i = 0 .. 256, and reads entry floor(f x 256): a Constant ramp whose stop
     is at 0.141 (the donut tutorial's sprinkles) shows its first colour up to 37 / 256 = 0.1445, where a 256-entry

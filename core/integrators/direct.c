@@ -588,6 +588,13 @@ INLINE double power_heuristic(double a, double b)
     return w == w ? w : 0.0;
 }
 
+/* The count MIS weighs a light's samples as: its samples, or 1 for a light that casts no shadow or has a Max Bounces,
+ * as Cycles weighs its one sample per hit (vertex.mis_count). */
+INLINE double mis_samples(const LightRecord *light)
+{
+    return light->cast_shadow != 0 && light->max_bounces >= 1024 ? (double)light->samples : 1.0;
+}
+
 /* How a render finds lights with extent: SAMPLE_* (RenderSettings.light_sampling, core/integrators/compiled.py). */
 
 /* What direct_light reads besides the block's hits. */
@@ -956,7 +963,7 @@ NOINLINE static int64_t direct_light(BlockHits *H, const DirectSettings *ds, uin
             if (weighed)
                 for (int64_t k = 0; k < b.n; k++)
                     if (H->traced[b.hit[k]] && b.blockers[k] == ALL_SETS)   /* (shadow-linked: samples alone) */
-                        b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
+                        b.weight[k] = b.weight[k] * power_heuristic(mis_samples(light) * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
             rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter, H,
                                   ds->clamping ? ds->caps : NULL, (double)count, ds->light_passes ? H->parts : NULL,
@@ -1069,7 +1076,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
             stretch_transmittance(lazy_march(&lazy), sigma, away ? lh.t - t_start : lh.t, kept);
             for (int c = 0; c < 3; c++) lh.radiance[c] *= kept[c];
         }
-        double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
+        double w = use_mis ? power_heuristic(pdf_b, mis_samples(light) * lh.pdf) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
         add_to_group(groups_L, ds->groups, 0, light->group, lh.radiance, w);
     }
@@ -1089,7 +1096,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         int64_t index = emitters_index >= 0
             ? emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance)) : -1;
         double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, away ? P : O, N, D, t_mis, ray->time) : 0.0;
-        double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
+        double n_l = emitters_index >= 0 ? mis_samples(ds->lights + emitters_index) : 1.0;
         double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
         double through[3];
         if (sigma != NULL) {                            /* (what the media let through from the surface) */
@@ -1121,7 +1128,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         }
         double w = 1.0;
         if (world_index >= 0 && use_mis)
-            w = power_heuristic(pdf_b, ds->lights[world_index].samples * world_pdf(ctx->world, D));
+            w = power_heuristic(pdf_b, mis_samples(ds->lights + world_index) * world_pdf(ctx->world, D));
         if (ray->ao)                                    /* (Fast GI: its MIS weight kept, as Cycles') */
             for (int c = 0; c < 3; c++) L_world[c] *= ds->ao_factor;
         for (int c = 0; c < 3; c++) light_L[c] += L_world[c] * w;

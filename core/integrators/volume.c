@@ -139,7 +139,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                                                                   &s)));
             }
             if (extent && light->use_mis != 0 && hittable && ds->mis && blockers == ALL_SETS)
-                w = w * power_heuristic((double)count * ls.pdf, p);   /* (shadow-linked: light samples alone) */
+                w = w * power_heuristic(mis_samples(light) * ls.pdf, p);   /* (shadow-linked: light samples alone) */
             double value[3];
             for (int c = 0; c < 3; c++) { value[c] = (w * p) * ls.color[c] * T[0][c]; L[c] += value[c]; }
             if (groups != NULL)                          /* (an emitter's group is its object's) */

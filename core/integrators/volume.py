@@ -46,7 +46,7 @@ from ..visibility import HIDDEN_FROM_VOLUME_SCATTER
 from . import lightgroups, shadows
 from .base import Context, check_stop
 from .rays import nearest_seen
-from .vertex import (BsdfRay, gather_light, light_count, light_numbers, power_heuristic, shadow_blockers,
+from .vertex import (BsdfRay, gather_light, light_count, light_numbers, mis_count, power_heuristic, shadow_blockers,
                      textured_samples)
 
 # The sampling dimensions of a stretch's scattering point (distance, channel) and of its phase direction, and the
@@ -372,7 +372,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
                 w = w * share[index][rows]
             if not light.delta and light.use_mis and hittable and mis:
                 weighed = True if blockers is None else blockers == np.uint64(linking.ALL_SETS)
-                w = w * np.where(weighed, power_heuristic(count * ls.pdf[rows], p), 1.0)
+                w = w * np.where(weighed, power_heuristic(mis_count(ctx, light) * ls.pdf[rows], p), 1.0)
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
             L[rows] += (w * p)[:, None] * color * through
             if groups is not None:

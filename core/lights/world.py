@@ -64,7 +64,8 @@ class World:
               nothing, its light samples light no closure of those kinds (integrators/vertex.py closures_left_out)
               and no scattering point where Volume Scatter is off
     max_bounces, cast_shadow: an image world's light samples stop after that bounce (Cycles' world Max Bounces), and
-              without shadows they trace no shadow ray (the add-on does not read Blender 5.2's world Shadows: noted).
+              without shadows they trace no shadow ray (Blender 5.2's world Shadows; weighed by MIS as Cycles' one
+              sample per hit: integrators/vertex.py mis_count).
               A constant world has no light samples, in Cycles as in Primer (it is found by the rays that escape),
               so neither changes it.
     suns:     the sun lamps it brings (a Sky Texture's sun disc, core/lights/world_graph.py sky_suns), which the

@@ -73,29 +73,51 @@ class Image:
         return as_rgba(self.pixels).astype(np.float32)
 
 
-def limited(pixels: np.ndarray, limit: int) -> np.ndarray:
-    """An image's pixels (h, w, c) as Cycles keeps them under a texture size limit (Simplify > Texture Limit,
-    scene/image.cpp file_load_image): halved until the larger side fits in `limit` (0: no limit), each texel the mean
-    of its k x k block (k = 2^halvings, util_image_downscale_pixels) of the stored values, the remainder past whole
-    blocks dropped; integers read as 0..1, averaged in float32 and rounded back as Cycles rounds them."""
+def reduction(height: int, width: int, limit: int = 0, resolution: float = 1.0) -> float:
+    """The factor (a power of 2, at most 1) by which Cycles shrinks an image of height x width under Simplify's
+    Texture Limit `limit` (0: none) and Texture Resolution `resolution` (Blender 5.2; 1: none), as Cycles 5.2's
+    ImageManager::device_load_image and ImageCache::load_full compute it in float32: the resolution lowered to
+    limit / larger side where that side passes the limit, then rounded down to a power of 2, 2^floor(log2). (Blender
+    5.0's halving until the larger side fits the limit gives the same factor.)"""
+    scale = np.float32(resolution)
+    largest = max(int(height), int(width))
+    if limit > 0 and largest > limit:
+        scale = min(scale, np.float32(limit) / np.float32(largest))
+    if not scale < np.float32(1.0):
+        return 1.0
+    return float(np.float32(2.0) ** np.floor(np.log2(np.float32(scale))))
+
+
+def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarray:
+    """An image's pixels (h, w, c), bottom row first, as Cycles keeps them under Simplify > Texture Limit `limit`
+    (0: none) and Blender 5.2's Texture Resolution `resolution` (1: none): shrunk by `reduction` (scale 2^-n) with
+    util_image_resize_pixels' box filter, each texel the mean of its k x k block (k = 2^n) of the stored values, the
+    output int(side x scale) (at least 1) and the remainder past whole blocks (top rows, right columns) dropped.
+    Cycles' own float32 arithmetic: integers read as value x (1 / 255) (65535; Blender's build turns the division
+    into that product: measured, the exact halves of 4 x 4 means then round as Cycles'), summed row by row in
+    float32, times 1 / count, rounded back as util_image_cast_from_float rounds them: bytes as Cycles', bit for
+    bit. Half floats (float16, as Cycles keeps a half-float file) are averaged in float32 and rounded back to half."""
     h, w = pixels.shape[:2]
-    scale = 1.0
-    while limit > 0 and max(h, w) * scale > limit:
-        scale *= 0.5
+    scale = reduction(h, w, limit, resolution)
     if scale == 1.0:
         return pixels
-    k = int(1.0 / scale + 0.5)
+    k = int(np.float32(1.0) / np.float32(scale) + np.float32(0.5))
     oh, ow = max(int(np.float32(h) * np.float32(scale)), 1), max(int(np.float32(w) * np.float32(scale)), 1)
-    one = np.float32(1.0 / 255.0 if pixels.dtype == np.uint8 else 1.0 / 65535.0 if pixels.dtype == np.uint16 else 1.0)
-    values = pixels.astype(np.float32) * one
-    if oh * k > h or ow * k > w:                # (a side shorter than k: Cycles averages what there is)
-        values = np.pad(values, ((0, max(oh * k - h, 0)), (0, max(ow * k - w, 0)), (0, 0)), constant_values=np.nan)
-    blocks = values[:oh * k, :ow * k].reshape(oh, k, ow, k, -1)
-    mean = np.nanmean(blocks, axis=(1, 3)).astype(np.float32)
-    if pixels.dtype == np.float32:
+    top = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(pixels.dtype)
+    values = pixels.astype(np.float32) * (np.float32(1.0) / np.float32(top)) if top else pixels.astype(np.float32)
+    if values.ndim == 2:
+        values = values[:, :, None]
+    kh, kw = min(k, h), min(k, w)                   # (a side shorter than k: Cycles averages what there is)
+    blocks = values[:oh * kh, :ow * kw].reshape(oh, kh, ow, kw, -1).transpose(0, 2, 1, 3, 4).reshape(oh, ow, kh * kw, -1)
+    total = np.cumsum(blocks, axis=2, dtype=np.float32)[:, :, -1]     # (sequential: Cycles' order, rows then texels)
+    mean = (total * (np.float32(1.0) / np.float32(kh * kw))).reshape((oh, ow) + pixels.shape[2:])
+    if pixels.dtype == np.float16:                  # (float_to_half_image: clamped, rounded to nearest even)
+        return np.ascontiguousarray(np.clip(mean, -65504.0, 65504.0).astype(np.float16))
+    if top is None:
         return np.ascontiguousarray(mean)
-    top = 255.0 if pixels.dtype == np.uint8 else 65535.0
-    rounded = np.where(mean < 0.0, 0.0, np.where(mean > 1.0 - 0.5 / top, top, np.floor(top * mean + 0.5)))
+    scaled = np.float32(top) * mean + np.float32(0.5)
+    rounded = np.where(mean < 0.0, 0.0, np.where(mean > np.float32(1.0) - np.float32(0.5) / np.float32(top), top,
+                                                 np.trunc(scaled)))
     return np.ascontiguousarray(rounded.astype(pixels.dtype))
 
 

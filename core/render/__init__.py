@@ -177,7 +177,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     world = lights_.world.finite_world(scene.the_world(), warnings)
     # (textured emitters' estimates: their graphs run in C where the library is loaded, in both kernels alike)
     emitters = lights_.emitters.from_geometry(geometry, materials, compiled_graph_emission, warnings)
-    sampler = lights_.WorldLight.of(world, compensate=compensates_world(settings))
+    sampler = lights_.WorldLight.of(world, compensate=compensates_world(settings, world))
     lights += [light for light in (emitters, sampler) if light is not None]
     ctx = Context(scene, settings, geometry, lights, materials, light_numbers)
     ctx.extra["world_light"] = world
@@ -557,12 +557,14 @@ def _usable_cores() -> int:
         return os.cpu_count() or 1
 
 
-def compensates_world(settings: RenderSettings) -> bool:
+def compensates_world(settings: RenderSettings, world) -> bool:
     """Whether the world's light samples go by its map less its mean (lights/world.py compensated_map): where every
     light sample of it has a BSDF ray as its MIS partner that sees the same light (the direct and path tracers with
-    MIS and the lecture's defaults), and where the split between the two does not change the image (no clamping,
-    no Fast GI, whose escaping rays see the world dimmer than its light samples do, as in Cycles)."""
+    MIS and the lecture's defaults), and where the split between the two does not change the image (no clamping;
+    no Fast GI, whose escaping rays see the world dimmer than its light samples do; the world's Shadows on and no
+    Max Bounces of its own, vertex.mis_count: as in Cycles, the split decides the image there)."""
     return (settings.integrator in ("direct", "path") and settings.light_sampling == "mis"
+            and world.cast_shadow and world.max_bounces >= 1024
             and settings.is_lecture_default() and not settings.sample_clamp_direct
             and not settings.sample_clamp_indirect and not (settings.ao_bounces and settings.ao_factor))
 
