@@ -186,20 +186,26 @@ def test_in_fog_the_compiled_groups_follow_the_reference():
         np.testing.assert_allclose(group(compiled, name), group(numpy_, name), rtol=1e-4, atol=1e-6, err_msg=name)
 
 
+def black_floor_seen_from_above(width: float) -> Scene:
+    """A black floor at z = 0 (material 0) under an orthographic camera 3 above it, looking straight down at a square
+    `width` wide."""
+    matrix = np.eye(4)
+    matrix[2, 3] = 3.0
+    scene = Scene(camera=Camera(matrix_world=matrix, type="ORTHO", ortho_scale=width, clip_start=0.1, clip_end=20.0))
+    scene.materials.append(Material(np.zeros(3), "Black"))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]), name="Floor")
+    return scene
+
+
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_a_medium_emits_into_its_objects_group_and_the_world_medium_into_the_worlds(kernels):
     """Looking straight down on a black floor through a 1 m tall volume-only box F (a medium of nothing but itself)
     under a world medium that emits e per metre: the box's group holds e x 1 m, the world's emission inside it
     (Cycles gives a stretch's emission to the last object of its volume stack), and the world's group the rest of
     the ray's e x length: together Combined."""
-    from core.camera import Camera
     from core.lights import World
     e = np.array([0.3, 0.2, 0.1])
-    matrix = np.eye(4)
-    matrix[2, 3] = 3.0
-    scene = Scene(camera=Camera(matrix_world=matrix, type="ORTHO", ortho_scale=1.0, clip_start=0.1, clip_end=20.0))
-    scene.materials.append(Material(np.zeros(3), "Black"))
-    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]), name="Floor")
+    scene = black_floor_seen_from_above(1.0)
     scene.materials.append(volume_only("Box", "ABSORPTION", density=0.0))
     scene.add_mesh(primitives.box((4.0, 4.0, 1.0), center=(0.0, 0.0, 1.0)), materials=np.array([1]), name="Box")
     scene.world = World(color=np.zeros(3), volume=[("EMISSION", 1.0, {"color": e, "strength": 1.0})])
@@ -245,14 +251,9 @@ def test_a_medium_kept_per_object_emits_into_each_objects_own_group(kernels):
     per object, core/volumes/media.py per_object), in groups F (left, Random 0.25) and G (right, 0.75), seen
     straight down over a black floor: F holds 0.25 e on the left and nothing on the right, G 0.75 e on the right and
     nothing on the left, as Cycles gives each object's stretch to its own group."""
-    from core.camera import Camera
     from core.materials.graph import GraphNode, Link
     e = np.array([0.4, 0.2, 0.1])
-    matrix = np.eye(4)
-    matrix[2, 3] = 3.0
-    scene = Scene(camera=Camera(matrix_world=matrix, type="ORTHO", ortho_scale=2.0, clip_start=0.1, clip_end=20.0))
-    scene.materials.append(Material(np.zeros(3), "Black"))
-    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]), name="Floor")
+    scene = black_floor_seen_from_above(2.0)
     random = Link(GraphNode("OBJECT_INFO", {"material_index": 0.0}), "Random")
     scene.materials.append(volume_only("Glow", "EMISSION", color=e, strength=random))
     for name, value, x in (("Left", 0.25, -1.0), ("Right", 0.75, 1.0)):
