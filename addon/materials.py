@@ -833,7 +833,31 @@ def load_image(image, reader: NodeReader, node):
         _IMAGES[key] = None
         return None
     _IMAGES[key] = _image_or_warning(image, reader, node, srgb, frame=frame if source == "SEQUENCE" else None)
+    note_alpha(image, _IMAGES[key], reader, node)
     return _IMAGES[key]
+
+
+def note_alpha(image, picture, reader: NodeReader, node) -> None:
+    """Say where an image with some alpha below 1 (`picture`, its textures.Image) shows other colours than in Cycles:
+    OpenImageIO hands Primer the colours of a file with straight alpha (PNG, TGA, TIFF...) multiplied by that alpha,
+    where Cycles keeps them straight for a Non-Color image or Alpha None or Channel Packed (image_associate_alpha),
+    and divides them back where the node's Alpha output is used (NODE_IMAGE_ALPHA_UNASSOCIATE)."""
+    pixels = getattr(picture, "pixels", None)
+    if pixels is None or pixels.ndim != 3 or pixels.shape[2] != 4:
+        return
+    opaque = np.iinfo(pixels.dtype).max if pixels.dtype.kind in "ui" else 1.0
+    if (pixels[..., 3] >= opaque).all():
+        return
+    stored_straight = image.file_format not in ("OPEN_EXR", "OPEN_EXR_MULTILAYER", "HDR")
+    straight = image.colorspace_settings.name == "Non-Color" or image.alpha_mode in ("NONE", "CHANNEL_PACKED")
+    alpha = node.outputs.get("Alpha")
+    if stored_straight and straight:
+        reader.warn(node, f"image '{image.name}' has alpha and is {image.colorspace_settings.name} with Alpha "
+                          f"{image.alpha_mode.title().replace('_', ' ')}: Cycles reads its colours as stored, Primer "
+                          "multiplied by the alpha (darker where it is below 1)")
+    elif alpha is not None and alpha.is_linked:
+        reader.warn(node, f"image '{image.name}' has alpha and its Alpha output is used: Cycles then divides the "
+                          "colours by the alpha, Primer keeps them multiplied by it (darker where it is below 1)")
 
 
 def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = None, frame: int = None):

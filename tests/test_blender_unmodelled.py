@@ -142,3 +142,39 @@ def test_a_holdout_collection_and_a_volume_only_box_render_as_in_cycles(primer, 
     assert (holes_primer != holes_cycles).sum() <= 4, ((holes_primer != holes_cycles).sum(), holes_cycles.sum())
     rgb = (mine[..., :3] * mine[..., 3:]).mean(axis=(0, 1)), (cycles[..., :3] * cycles[..., 3:]).mean(axis=(0, 1))
     np.testing.assert_allclose(rgb[0], rgb[1], rtol=0.05, atol=0.005)
+
+
+@pytest.mark.parametrize("space, alpha_mode, alpha_linked, said", [
+    ("Non-Color", "STRAIGHT", False, "Cycles reads its colours as stored"),
+    ("sRGB", "CHANNEL_PACKED", False, "Cycles reads its colours as stored"),
+    ("sRGB", "STRAIGHT", True, "Cycles then divides the colours by the alpha"),
+    ("sRGB", "STRAIGHT", False, None),
+])
+def test_an_images_alpha_that_primer_reads_premultiplied_is_said(primer, tmp_path, space, alpha_mode, alpha_linked,
+                                                                   said):
+    """A PNG with alpha 0.25: OpenImageIO multiplies its colours by the alpha as Primer reads them, which is Cycles'
+    own reading of an sRGB image whose Alpha output is unused (nothing said) but not of a Non-Color or Channel
+    Packed one, nor where the Alpha output is used (Cycles divides back): those are said."""
+    materials_ = sys.modules[primer.__name__ + ".addon.materials"]
+    image = bpy.data.images.new("Half", 4, 4, alpha=True)
+    image.pixels.foreach_set(np.tile([0.8, 0.6, 0.4, 0.25], 16).astype(np.float32))
+    image.filepath_raw = str(tmp_path / "half.png")
+    image.file_format = "PNG"
+    image.save()
+    stored = materials_._oiio_read(materials_._oiio(), str(tmp_path / "half.png"))[0, 0]
+    assert stored[3] == 64 and stored[0] == 51          # (204 x 64 / 255: the colour as Primer reads it, multiplied)
+    image = bpy.data.images.load(str(tmp_path / "half.png"))
+    image.colorspace_settings.name = space
+    image.alpha_mode = alpha_mode
+    m, tree, output = empty_material("Alpha")
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    tree.links.new(texture.outputs["Color"], bsdf.inputs["Base Color"])
+    if alpha_linked:
+        tree.links.new(texture.outputs["Alpha"], bsdf.inputs["Alpha"])
+    tree.links.new(bsdf.outputs[0], output.inputs["Surface"])
+    warnings = []
+    materials_.export_material(m, warnings)
+    noted = [w for w in warnings if "has alpha" in w]
+    assert (noted == []) if said is None else (len(noted) == 1 and said in noted[0])
