@@ -100,12 +100,15 @@ class LightGroups:
 
     def of_media(self, geometry, media) -> tuple:
         """(the group (V,) int64 of each column of `media` (core/volumes Media): the group of the objects whose
-        triangles carry its material, NONE where none does; the columns (c,) int64 whose objects are in different
-        groups, which take the first such object's group)."""
+        triangles carry its medium, NONE where none does; the columns (c,) int64 whose objects are in different
+        groups, which take the first such object's group; each column's box (low (V, 3), high (V, 3) float64, inf
+        and -inf where no triangle carries it: a medium kept per object has its own objects' box)), in one pass
+        over the triangles."""
         from ..volumes.media import triangle_chunks
         V = len(media.g)
         first = np.full(V, np.iinfo(np.int64).max)                # the first object (instance index) of each
         groups = [set() for _ in range(V)]
+        low, high = np.full((V, 3), np.inf), np.full((V, 3), -np.inf)
         owner_groups = np.append(self.instances, NONE)
         for prims, triangles in triangle_chunks(geometry):
             column = media.column_of(triangles.material, media.objects_of(geometry, prims))   # (per object: its own)
@@ -114,9 +117,12 @@ class LightGroups:
                 continue
             owners = geometry.owners(prims[rows])
             for v in np.unique(column[rows]):
-                mine = owners[column[rows] == v]
+                carried = column[rows] == v
+                mine = owners[carried]
                 groups[v].update(int(g) for g in np.unique(owner_groups[mine]))
                 first[v] = min(first[v], int(np.where(mine >= 0, mine, np.iinfo(np.int64).max).min()))
+                corners = triangles.corners[rows[carried]].reshape(-1, 3)
+                low[v], high[v] = np.minimum(low[v], corners.min(axis=0)), np.maximum(high[v], corners.max(axis=0))
         out = np.full(V, NONE, np.int64)
         for v in range(V):
             if first[v] < len(self.instances):
@@ -124,28 +130,17 @@ class LightGroups:
             elif groups[v]:
                 out[v] = min(groups[v])
         mixed = np.array([v for v in range(V) if len(groups[v]) > 1], np.int64)
-        return out, mixed
+        return out, mixed, (low, high)
 
-    def overlapping(self, geometry, media) -> bool:
-        """Whether the boxes of two media of `media` (core/volumes Media) in different groups (`media`, of_media)
-        overlap: where a ray may be in both at once, and its emission's group is the one listed last's."""
-        from ..volumes.media import triangle_chunks
+    def overlapping(self, boxes: tuple) -> bool:
+        """Whether the boxes (low (V, 3), high (V, 3): of_media's) of two media in different groups (`media`,
+        of_media) overlap: where a ray may be in both at once, and its emission's group is the one listed last's."""
         if self.media is None or len(set(self.media.tolist())) < 2:
             return False
-        V = len(media.g)                    # (each column's box: a medium kept per object has its objects' own)
-        low, high = np.full((V, 3), np.inf), np.full((V, 3), -np.inf)
-        for prims, triangles in triangle_chunks(geometry):
-            column = media.column_of(triangles.material, media.objects_of(geometry, prims))
-            for v in np.unique(column[column >= 0]):
-                corners = triangles.corners[column == v].reshape(-1, 3)
-                low[v], high[v] = np.minimum(low[v], corners.min(axis=0)), np.maximum(high[v], corners.max(axis=0))
-        boxes = {v: (low[v], high[v]) for v in range(V) if np.isfinite(low[v]).all()}
-        for a in boxes:
-            for b in boxes:
-                if a < b and self.media[a] != self.media[b] and np.all(boxes[a][0] < boxes[b][1]) \
-                        and np.all(boxes[b][0] < boxes[a][1]):
-                    return True
-        return False
+        low, high = boxes
+        carried = [v for v in range(len(low)) if np.isfinite(low[v]).all()]
+        return any(a < b and self.media[a] != self.media[b] and np.all(low[a] < high[b]) and np.all(low[b] < high[a])
+                   for a in carried for b in carried)
 
     def emission_groups(self, inside: np.ndarray) -> np.ndarray:
         """The group (k,) int64 that the media's emission along rays with stacks `inside` (k, V) goes to: that of

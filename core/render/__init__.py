@@ -222,15 +222,15 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
         ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
     groups = ctx.extra["light_groups"]
     if media is not None and groups is not None:      # (the group each medium's emission goes to: lightgroups.py)
-        groups.media, mixed = groups.of_media(geometry, media)
+        groups.media, mixed, boxes = groups.of_media(geometry, media)
         if len(mixed) and media.emits:
             names = ", ".join(repr(getattr(list(scene.materials)[int(row)], "name", row)) if row < len(scene.materials)
-                              else "'default'" for row in np.flatnonzero(np.isin(media.column, mixed)))
+                              else "'default'" for row in np.unique(media.rows[mixed]))
             note = (f"volumes: the medium of {names} is on objects in different light groups; its emission goes to "
                     "the group of the first of them (Cycles: of the object the ray entered)")
             if note not in warnings:
                 warnings.append(note)
-        if media.emits and groups.overlapping(geometry, media):
+        if media.emits and groups.overlapping(boxes):
             # (LightGroups.emission_groups: the stack's last column, where Cycles takes the one entered last)
             note = ("volumes: where a ray is inside the media of objects in different light groups at once, their "
                     "emission goes to the group of the medium Primer lists last (Cycles: of the one the ray entered "
