@@ -520,7 +520,8 @@ class GraphReader:
         if kind == "IMAGE":
             props = {"image": load_image(node.image, self.reader, node),
                      "interpolation": node.interpolation, "extension": node.extension,
-                     "projection": node.projection, "blend": float(node.projection_blend)}
+                     "projection": node.projection, "blend": float(node.projection_blend),
+                     "unassociate": unassociates(node.image, node)}
             inputs = self.inputs(node, path, ["Vector"])
             if not node.inputs["Vector"].is_linked:
                 inputs = {}
@@ -794,9 +795,9 @@ def _shown(socket) -> str:
 
 def load_image(image, reader: NodeReader, node):
     """A Blender image as Cycles reads it at the scene's frame (set_frame): a textures.Image (pixels as stored,
-    bottom row first), a textures.TiledImage for a UDIM image (every tile of image.tiles), or None (Cycles' magenta)
-    with a warning when it is missing or cannot be read. A sequence gives the file of the frame the node's Image
-    User shows (sequence_frame); a movie, that frame decoded by Blender (addon/movie.py). Files are read with
+    bottom row first, the alpha as Cycles reads it: alpha_rule), a textures.TiledImage for a UDIM image (every tile
+    of image.tiles), or None (Cycles' magenta) with a warning when it is missing or cannot be read. A sequence gives
+    the file of the frame the node's Image User shows (sequence_frame); a movie, that frame decoded by Blender (addon/movie.py). Files are read with
     OpenImageIO (Blender's own module inside Blender, else the pip one), packed images from their bytes; without
     OpenImageIO Blender's pixel buffer is read in bulk. Read once per export and file."""
     if image is None:
@@ -833,31 +834,26 @@ def load_image(image, reader: NodeReader, node):
         _IMAGES[key] = None
         return None
     _IMAGES[key] = _image_or_warning(image, reader, node, srgb, frame=frame if source == "SEQUENCE" else None)
-    note_alpha(image, _IMAGES[key], reader, node)
     return _IMAGES[key]
 
 
-def note_alpha(image, picture, reader: NodeReader, node) -> None:
-    """Say where an image with some alpha below 1 (`picture`, its textures.Image) shows other colours than in Cycles:
-    OpenImageIO hands Primer the colours of a file with straight alpha (PNG, TGA, TIFF...) multiplied by that alpha,
-    where Cycles keeps them straight for a Non-Color image or Alpha None or Channel Packed (image_associate_alpha),
-    and divides them back where the node's Alpha output is used (NODE_IMAGE_ALPHA_UNASSOCIATE)."""
-    pixels = getattr(picture, "pixels", None)
-    if pixels is None or pixels.ndim != 3 or pixels.shape[2] != 4:
-        return
-    opaque = np.iinfo(pixels.dtype).max if pixels.dtype.kind in "ui" else 1.0
-    if (pixels[..., 3] >= opaque).all():
-        return
-    stored_straight = image.file_format not in ("OPEN_EXR", "OPEN_EXR_MULTILAYER", "HDR")
-    straight = image.colorspace_settings.name == "Non-Color" or image.alpha_mode in ("NONE", "CHANNEL_PACKED")
-    alpha = node.outputs.get("Alpha")
-    if stored_straight and straight:
-        reader.warn(node, f"image '{image.name}' has alpha and is {image.colorspace_settings.name} with Alpha "
-                          f"{image.alpha_mode.title().replace('_', ' ')}: Cycles reads its colours as stored, Primer "
-                          "multiplied by the alpha (darker where it is below 1)")
-    elif alpha is not None and alpha.is_linked:
-        reader.warn(node, f"image '{image.name}' has alpha and its Alpha output is used: Cycles then divides the "
-                          "colours by the alpha, Primer keeps them multiplied by it (darker where it is below 1)")
+def alpha_rule(image) -> str:
+    """How Cycles reads an image's alpha (Blender passes the image's Alpha mode and colour space): "ignore" for Alpha
+    None (IMAGE_ALPHA_IGNORE: alpha 1), "straight" for a data colour space (Non-Color) or Alpha Channel Packed (the
+    colours as stored), else "associate" (Straight or Premultiplied: image_associate_alpha, the colours multiplied
+    by the alpha where the file stores them straight)."""
+    if image.alpha_mode == "NONE":
+        return "ignore"
+    settings = image.colorspace_settings
+    data = getattr(settings, "is_data", settings.name == "Non-Color")
+    return "straight" if data or image.alpha_mode == "CHANNEL_PACKED" else "associate"
+
+
+def unassociates(image, node) -> bool:
+    """Whether Cycles divides an Image Texture's colour back by its alpha where the node's Alpha output is read
+    (ImageTextureNode::compile's NODE_IMAGE_ALPHA_UNASSOCIATE): for an image it associates (alpha_rule), whatever its
+    file stores; core/materials/graph.py sets the flag where the compiled graph reads the Alpha output."""
+    return image is not None and alpha_rule(image) == "associate"
 
 
 def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = None, frame: int = None):
@@ -1103,17 +1099,19 @@ def _oiio():
 
 
 def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
-    """An image's pixels (h, w, c) as stored (uint8, uint16 or float32) bottom row first, its channels as stored
-    (sRGB values of an sRGB image are left encoded; a movie's are scene-linear): its file, a UDIM image's `tile`, a
-    sequence's or a movie's `frame`."""
+    """An image's pixels (h, w, c) as Cycles loads them (uint8, uint16, float16 or float32) bottom row first, its
+    channels as stored (sRGB values of an sRGB image are left encoded; a movie's are scene-linear), its alpha as
+    alpha_rule says (with_alpha_rule): its file, a UDIM image's `tile`, a sequence's or a movie's `frame`."""
     oiio = _oiio()
+    rule = alpha_rule(image)
     if image.source == "TILED":
         packed = next((p for p in image.packed_files if getattr(p, "tile_number", 1001) == tile), None)
         if packed is not None and oiio is not None:
-            return _oiio_read_bytes(oiio, packed.packed_file.data, os.path.splitext(packed.filepath)[1])
-        return _oiio_read_file(oiio, tile_path(bpy.path.abspath(image.filepath, library=image.library), tile))
+            return _oiio_read_bytes(oiio, packed.packed_file.data, os.path.splitext(packed.filepath)[1], rule)
+        return _oiio_read_file(oiio, tile_path(bpy.path.abspath(image.filepath, library=image.library), tile), rule)
     if image.source == "SEQUENCE":
-        return _oiio_read_file(oiio, sequence_path(bpy.path.abspath(image.filepath, library=image.library), frame))
+        return _oiio_read_file(oiio, sequence_path(bpy.path.abspath(image.filepath, library=image.library), frame),
+                               rule)
     if image.source == "MOVIE":
         width, height = image.size
         if width * height == 0:
@@ -1126,15 +1124,15 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
         if packed is not None:
             data = packed.data
             suffix = os.path.splitext(image.filepath)[1] or "." + image.file_format.lower()
-            return _decoded(("packed", suffix, len(data), hashlib.blake2b(data, digest_size=16).digest()),
-                            lambda: _oiio_read_bytes(oiio, data, suffix))
+            return _decoded(("packed", suffix, len(data), hashlib.blake2b(data, digest_size=16).digest(), rule),
+                            lambda: _oiio_read_bytes(oiio, data, suffix, rule))
         path = bpy.path.abspath(image.filepath, library=image.library)
         try:
             stat = os.stat(path)
         except OSError:
-            return _oiio_read_file(oiio, path)      # (no such file: its error)
-        return _decoded(("file", os.path.abspath(path), stat.st_mtime_ns, stat.st_size),
-                        lambda: _oiio_read_file(oiio, path))
+            return _oiio_read_file(oiio, path, rule)    # (no such file: its error)
+        return _decoded(("file", os.path.abspath(path), stat.st_mtime_ns, stat.st_size, rule),
+                        lambda: _oiio_read_file(oiio, path, rule))
     if image.source == "FILE" and packed is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
         if not os.path.isfile(path):
@@ -1146,14 +1144,27 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
         raise ValueError("the image is empty")
     flat = np.empty(width * height * channels, np.float32)
     image.pixels.foreach_get(flat)
-    return flat.reshape(height, width, channels)
+    return _buffer_alpha(flat.reshape(height, width, channels), rule, bool(image.is_float))
+
+
+def _buffer_alpha(pixels: np.ndarray, rule: str, is_float: bool) -> np.ndarray:
+    """Blender's pixel buffer (h, w, c) float32 of an image with its alpha as Cycles' BlenderImageLoader reads it: a
+    byte image's (Blender keeps bytes straight, Image.pixels gives them as k x (1 / 255)) associated in bytes as
+    textures.associated does, where `rule` (alpha_rule) is "associate"; a float image's as it is (Blender keeps float
+    buffers associated); alpha 1 for "ignore"."""
+    if rule == "ignore":
+        return textures_.alpha_ignored(pixels)
+    if rule != "associate" or is_float or not textures_.has_alpha_below_one(pixels):
+        return pixels
+    stored = np.rint(np.clip(pixels, 0.0, 1.0) * np.float32(255.0)).astype(np.uint8)
+    return textures_.associated(stored).astype(np.float32) * np.float32(1.0 / 255.0)
 
 
 def _decoded(key: tuple, read) -> np.ndarray:
     """The pixels of an image file as `read()` decodes them, decoded once for the renders that follow one another:
     key names the file's contents (a packed file's bytes by their hash; a file on disk by its path, modification time
-    and size), and the pixels an export used are kept (read-only) for the next export, the others dropped
-    (begin_export), as Blender keeps a decoded image in memory for Cycles' renders after the first."""
+    and size) and how its alpha is read, and the pixels an export used are kept (read-only) for the next export, the
+    others dropped (begin_export), as Blender keeps a decoded image in memory for Cycles' renders after the first."""
     pixels = _DECODED_NOW.get(key)
     if pixels is None:
         pixels = _DECODED_BEFORE.get(key)
@@ -1164,34 +1175,43 @@ def _decoded(key: tuple, read) -> np.ndarray:
     return pixels
 
 
-def _oiio_read_file(oiio, path: str) -> np.ndarray:
-    """An image file's pixels with OpenImageIO (_oiio_read); FileNotFoundError where there is no such file, OSError
-    without OpenImageIO (tiles and sequences are read from their files only)."""
+def _oiio_read_file(oiio, path: str, rule: str = None) -> np.ndarray:
+    """An image file's pixels with OpenImageIO (_oiio_read, `rule` as there); FileNotFoundError where there is no
+    such file, OSError without OpenImageIO (tiles and sequences are read from their files only)."""
     if not os.path.isfile(path):
         raise FileNotFoundError(f"no file {path}")
     if oiio is None:
         raise OSError("OpenImageIO is not available to read it")
-    return _oiio_read(oiio, path)
+    return _oiio_read(oiio, path, rule)
 
 
-def _oiio_read_bytes(oiio, data: bytes, suffix: str) -> np.ndarray:
+def _oiio_read_bytes(oiio, data: bytes, suffix: str, rule: str = None) -> np.ndarray:
     """A packed file's pixels (its bytes, its file name's `suffix` such as ".png"), read with OpenImageIO from a
-    temporary file."""
+    temporary file (`rule` as _oiio_read)."""
     with tempfile.TemporaryDirectory() as folder:
         path = os.path.join(folder, "packed" + suffix)
         with open(path, "wb") as handle:
             handle.write(data)
-        return _oiio_read(oiio, path)
+        return _oiio_read(oiio, path, rule)
 
 
-def _oiio_read(oiio, path: str) -> np.ndarray:
+def _oiio_read(oiio, path: str, rule: str = None) -> np.ndarray:
     """An image file's pixels with OpenImageIO at their stored precision (uint8 for 8-bit files, uint16 for
     16-bit ones, float16 for half-float ones, which Cycles keeps as half (textures.limited rounds its means to half;
-    textures.Image reads them as float32, exactly), else float32), flipped to bottom row first."""
-    buf = oiio.ImageBuf(path)
+    textures.Image reads them as float32, exactly), else float32), flipped to bottom row first. With a `rule`
+    (alpha_rule) the file is opened as Cycles' OIIOImageLoader opens it, its colours as stored
+    (oiio:UnassociatedAlpha 1), and its alpha read by with_alpha_rule; without one (a movie's frame, scene-linear
+    floats from Blender), OpenImageIO's own reading."""
+    if rule is None:
+        buf = oiio.ImageBuf(path)
+    else:
+        config = oiio.ImageSpec()
+        config.attribute("oiio:UnassociatedAlpha", 1)
+        buf = oiio.ImageBuf(path, 0, 0, config)
     if buf.has_error:
         raise OSError(buf.geterror())
-    stored = buf.spec().format.basetype
+    spec = buf.spec()
+    stored = spec.format.basetype
     kind, dtype = ((oiio.UINT8, np.uint8) if stored == oiio.UINT8 else
                    (oiio.UINT16, np.uint16) if stored == oiio.UINT16 else
                    (oiio.HALF, np.float16) if stored == oiio.HALF else (oiio.FLOAT, np.float32))
@@ -1201,7 +1221,36 @@ def _oiio_read(oiio, path: str) -> np.ndarray:
     pixels = np.asarray(pixels, dtype)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
-    return np.ascontiguousarray(pixels[::-1])
+    pixels = np.ascontiguousarray(pixels[::-1])
+    if rule is None:
+        return pixels
+    return with_alpha_rule(pixels, rule, stored_straight(spec, str(buf.file_format_name)))
+
+
+def stored_straight(spec, format_name: str) -> bool:
+    """Whether a file (its OpenImageIO ImageSpec, opened with oiio:UnassociatedAlpha 1, and its format's name) stores
+    colours with straight alpha, as Cycles' OIIOImageLoader::load_pixels decides: OpenImageIO says so
+    (oiio:UnassociatedAlpha: PNG, TIFF with unassociated alpha ...; not EXR, which stores them associated); or, for
+    a file with an alpha channel, a Targa whose alpha type is not 4 (premultiplied), and every DDS and PSD file."""
+    if spec.get_int_attribute("oiio:UnassociatedAlpha", 0):
+        return True
+    if spec.alpha_channel == -1:
+        return False
+    if format_name == "targa":
+        return spec.get_int_attribute("targa:alpha_type", -1) != 4
+    return format_name in ("dds", "psd")
+
+
+def with_alpha_rule(pixels: np.ndarray, rule: str, straight: bool) -> np.ndarray:
+    """An image file's pixels (h, w, c) as stored, `straight` when the file keeps its colours unassociated
+    (stored_straight), as Cycles keeps them for `rule` (alpha_rule): "associate" multiplies a straight file's
+    colours by their alpha (textures.associated: 4 channels only), "ignore" sets the alpha to 1
+    (textures.alpha_ignored), "straight" leaves them. Pixels with no alpha below 1 are given back untouched."""
+    if rule == "ignore":
+        return textures_.alpha_ignored(pixels)
+    if rule == "associate" and straight:
+        return textures_.associated(pixels)
+    return pixels
 
 
 def shader_nodes(material, warnings: list) -> list:

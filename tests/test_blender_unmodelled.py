@@ -144,37 +144,96 @@ def test_a_holdout_collection_and_a_volume_only_box_render_as_in_cycles(primer, 
     np.testing.assert_allclose(rgb[0], rgb[1], rtol=0.05, atol=0.005)
 
 
-@pytest.mark.parametrize("space, alpha_mode, alpha_linked, said", [
-    ("Non-Color", "STRAIGHT", False, "Cycles reads its colours as stored"),
-    ("sRGB", "CHANNEL_PACKED", False, "Cycles reads its colours as stored"),
-    ("sRGB", "STRAIGHT", True, "Cycles then divides the colours by the alpha"),
-    ("sRGB", "STRAIGHT", False, None),
-])
-def test_an_images_alpha_that_primer_reads_premultiplied_is_said(primer, tmp_path, space, alpha_mode, alpha_linked,
-                                                                   said):
-    """A PNG with alpha 0.25: OpenImageIO multiplies its colours by the alpha as Primer reads them, which is Cycles'
-    own reading of an sRGB image whose Alpha output is unused (nothing said) but not of a Non-Color or Channel
-    Packed one, nor where the Alpha output is used (Cycles divides back): those are said."""
-    materials_ = sys.modules[primer.__name__ + ".addon.materials"]
-    image = bpy.data.images.new("Half", 4, 4, alpha=True)
-    image.pixels.foreach_set(np.tile([0.8, 0.6, 0.4, 0.25], 16).astype(np.float32))
-    image.filepath_raw = str(tmp_path / "half.png")
+# The cases of an image's alpha (issue 33): (colour space, Alpha mode, Alpha output used), each on a plane of its own.
+ALPHA_CASES = [("Non-Color", "STRAIGHT", True), ("sRGB", "STRAIGHT", False), ("sRGB", "STRAIGHT", True),
+               ("sRGB", "CHANNEL_PACKED", True), ("sRGB", "NONE", True)]
+
+
+def straight_alpha_png(path: str) -> np.ndarray:
+    """Write a 4 x 4 RGBA PNG with straight alpha (Blender saves a byte image's values as they are) of bytes from a
+    fixed generator, alpha 0 and 255 among them; return them (4, 4, 4) uint8, bottom row first."""
+    rng = np.random.default_rng(33)
+    texels = rng.integers(0, 256, (4, 4, 4)).astype(np.uint8)
+    texels[0, 0, 3], texels[0, 1, 3], texels[1, 0, 3] = 0, 255, 1
+    image = bpy.data.images.new("Straight", 4, 4, alpha=True)
+    image.pixels.foreach_set((texels.astype(np.float32) / 255.0).reshape(-1))
+    image.filepath_raw = path
     image.file_format = "PNG"
     image.save()
-    stored = materials_._oiio_read(materials_._oiio(), str(tmp_path / "half.png"))[0, 0]
-    assert stored[3] == 64 and stored[0] == 51          # (204 x 64 / 255: the colour as Primer reads it, multiplied)
-    image = bpy.data.images.load(str(tmp_path / "half.png"))
-    image.colorspace_settings.name = space
-    image.alpha_mode = alpha_mode
-    m, tree, output = empty_material("Alpha")
-    texture = tree.nodes.new("ShaderNodeTexImage")
-    texture.image = image
-    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
-    tree.links.new(texture.outputs["Color"], bsdf.inputs["Base Color"])
-    if alpha_linked:
-        tree.links.new(texture.outputs["Alpha"], bsdf.inputs["Alpha"])
-    tree.links.new(bsdf.outputs[0], output.inputs["Surface"])
-    warnings = []
-    materials_.export_material(m, warnings)
-    noted = [w for w in warnings if "has alpha" in w]
-    assert (noted == []) if said is None else (len(noted) == 1 and said in noted[0])
+    bpy.data.images.remove(image)
+    return texels
+
+
+@pytest.mark.slow
+def test_an_images_straight_alpha_renders_as_in_cycles(primer, tmp_path):
+    """A straight-alpha PNG on five planes, one per case of ALPHA_CASES, each an Emission of the image's Color (Closest)
+    with Strength its Alpha where that is used: Cycles associates the colours (in bytes) of an sRGB image with Alpha
+    Straight and divides them back where the Alpha output is used, keeps them straight for Non-Color and Channel
+    Packed, and reads alpha 1 for None. Primer renders each texel (4 x 4 pixels, box filter) as Cycles does, where
+    reading OpenImageIO's premultiplied colours it was off by up to 0.6 (the Non-Color plane)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 16 * len(ALPHA_CASES), 16, 100
+    scene.world = bpy.data.worlds.new("Black")
+    scene.world.color = (0.0, 0.0, 0.0)
+    path = str(tmp_path / "straight.png")
+    texels = straight_alpha_png(path)
+    for k, (space, mode, alpha_used) in enumerate(ALPHA_CASES):
+        image = bpy.data.images.load(path, check_existing=False)
+        image.colorspace_settings.name = space
+        image.alpha_mode = mode
+        m, tree, output = empty_material(f"Alpha {k}")
+        texture = tree.nodes.new("ShaderNodeTexImage")
+        texture.image, texture.interpolation = image, "Closest"
+        emission = tree.nodes.new("ShaderNodeEmission")
+        tree.links.new(texture.outputs["Color"], emission.inputs["Color"])
+        if alpha_used:
+            tree.links.new(texture.outputs["Alpha"], emission.inputs["Strength"])
+        tree.links.new(emission.outputs[0], output.inputs["Surface"])
+        bpy.ops.mesh.primitive_plane_add(size=2.0, location=(2.0 * k, 0.0, 0.0))
+        bpy.context.object.data.materials.append(m)
+    bpy.ops.object.camera_add(location=(len(ALPHA_CASES) - 1.0, 0.0, 5.0))
+    camera = bpy.context.object
+    camera.data.type, camera.data.ortho_scale = "ORTHO", 2.0 * len(ALPHA_CASES)
+    scene.camera = camera
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 4, True)
+    worst = []
+    for k in range(len(ALPHA_CASES)):
+        here = (slice(None), slice(16 * k, 16 * (k + 1)), slice(0, 3))
+        worst.append(float(np.abs(mine[here] - cycles[here]).max()))
+    assert max(worst) < 1e-5, dict(zip([str(case) for case in ALPHA_CASES], worst))
+    textures = sys.modules[primer.__name__ + ".core.materials.textures"]
+    c = np.repeat(np.repeat(texels.astype(np.float64) / 255.0, 4, 0), 4, 1)     # each texel on 4 x 4 pixels
+    np.testing.assert_allclose(mine[:, 0:16, :3], c[..., :3] * c[..., 3:], atol=1e-6)      # Non-Color: straight x a
+    np.testing.assert_allclose(mine[:, 64:80, :3], textures.srgb_to_linear(c[..., :3]), atol=1e-6)   # None: a = 1
+
+
+def test_udim_tiles_and_sequence_frames_read_alpha_by_the_same_rule(primer, tmp_path):
+    """A UDIM image's tiles and a sequence's frames are read as a plain file is (no render): sRGB with Alpha Straight
+    associated in bytes (textures.associated), Non-Color straight as stored, Alpha None with alpha 255; and a
+    generated byte image (Blender's buffer, which Cycles' BlenderImageLoader associates in bytes too) likewise."""
+    materials_ = sys.modules[primer.__name__ + ".addon.materials"]
+    textures = sys.modules[primer.__name__ + ".core.materials.textures"]
+    texels = straight_alpha_png(str(tmp_path / "tiles.1001.png"))
+    straight_alpha_png(str(tmp_path / "frames_001.png"))
+    ignored = texels.copy()
+    ignored[..., 3] = 255
+    for space, mode, expected in (("sRGB", "STRAIGHT", textures.associated(texels)), ("Non-Color", "STRAIGHT", texels),
+                                  ("sRGB", "NONE", ignored)):
+        tiled = bpy.data.images.load(str(tmp_path / "tiles.1001.png"), check_existing=False)
+        tiled.source = "TILED"
+        frames = bpy.data.images.load(str(tmp_path / "frames_001.png"), check_existing=False)
+        frames.source = "SEQUENCE"
+        for image in (tiled, frames):
+            image.colorspace_settings.name = space
+            image.alpha_mode = mode
+        materials_.begin_export()
+        np.testing.assert_array_equal(materials_._read_pixels(tiled, tile=1001), expected)
+        np.testing.assert_array_equal(materials_._read_pixels(frames, frame=1), expected)
+        generated = bpy.data.images.new("Generated", 4, 4, alpha=True)
+        generated.colorspace_settings.name = space        # (before its pixels: a new colour space regenerates them)
+        generated.alpha_mode = mode
+        generated.pixels.foreach_set((texels.astype(np.float32) / 255.0).reshape(-1))
+        np.testing.assert_allclose(materials_._read_pixels(generated), expected / 255.0, atol=1e-7)
+    assert (textures.associated(texels) != texels).any()

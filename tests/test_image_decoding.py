@@ -47,7 +47,7 @@ packed.filepath = "//nowhere/b.png"
 
 decoded = []
 real = materials._oiio_read
-materials._oiio_read = lambda oiio, path: decoded.append(path) or real(oiio, path)
+materials._oiio_read = lambda oiio, path, *rule: decoded.append(path) or real(oiio, path, *rule)
 read = []
 for export in range(3):
     if export == 2:                                   # the file changes on disk: new contents, a later time

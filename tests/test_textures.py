@@ -813,3 +813,143 @@ def test_a_constant_colour_ramp_changes_colour_at_the_first_of_cycles_257_table_
         image = render.render(scene, dataclasses.replace(settings, kernels=kernels)).image
         for index, colour in enumerate(expected):
             np.testing.assert_allclose(image[4, index * 8 + 4, :3], colour[:3], rtol=1e-6, err_msg=kernels)
+
+
+# ------------------------------------------------------------------------------------------------
+# Straight alpha as Cycles reads it (issue 33): associated when loaded, divided back where the Alpha output is read
+# ------------------------------------------------------------------------------------------------
+
+def test_cycles_associates_straight_alpha_in_the_stored_type_truncating_bytes_and_shorts():
+    """util_image_multiply_native: a byte colour c with alpha a becomes (c a) // 255, a short (c a) // 65535 (both
+    truncated), a float c a; the alpha stays; grey and alpha (2 channels) and opaque pixels are left as they are."""
+    c = np.arange(256, dtype=np.uint8)
+    a = np.uint8(128)
+    pixels = np.stack([c, c[::-1], np.full(256, 7, np.uint8), np.full(256, a, np.uint8)], axis=-1)[None]
+    out = textures.associated(pixels)
+    np.testing.assert_array_equal(out[0, :, 0], (c.astype(np.int64) * 128) // 255)
+    np.testing.assert_array_equal(out[0, :, 1], (c[::-1].astype(np.int64) * 128) // 255)
+    np.testing.assert_array_equal(out[0, :, 3], 128)
+    assert out[0, 200, 0] == 100 and round(200 * 128 / 255) == 100 and out[0, 199, 0] == 99   # 99.89: truncated
+    shorts = np.array([[[60000, 1, 65535, 30000]]], np.uint16)
+    np.testing.assert_array_equal(textures.associated(shorts)[0, 0], [60000 * 30000 // 65535, 0, 30000, 30000])
+    floats = np.array([[[0.8, 0.5, 2.0, 0.25]]], np.float32)
+    np.testing.assert_array_equal(textures.associated(floats)[0, 0], np.float32([0.2, 0.125, 0.5, 0.25]))
+    grey_alpha = np.array([[[200, 128]]], np.uint8)
+    opaque = np.array([[[200, 100, 50, 255]]], np.uint8)
+    assert textures.associated(grey_alpha) is grey_alpha and textures.associated(opaque) is opaque
+
+
+def test_a_half_float_product_is_truncated_to_half_as_cycles_float_to_half_image():
+    """Half floats are associated as the float32 product cut to half by truncating its mantissa: 1 + 3/4096 becomes
+    1 (rounding would give 1 + 1/1024); below 2^-14 is 0; above 65504 is 65504."""
+    values = np.array([1.0 + 3.0 / 4096.0, -(1.0 + 3.0 / 4096.0), 2.0 ** -15, 1e6, 0.5], np.float32)
+    np.testing.assert_array_equal(textures.half_truncated(values).astype(np.float64),
+                                  [1.0, -1.0, 0.0, 65504.0, 0.5])
+    half = np.array([[[1.0 + 1.0 / 1024.0, 0.5, 0.0, 0.75]]], np.float16)
+    out = textures.associated(half)
+    assert out.dtype == np.float16
+    # 0.75 + 1.5 x 2^-11 (half's step there): cut to 0.75 + 2^-11, where rounding would give 0.75 + 2^-10
+    np.testing.assert_array_equal(out[0, 0].astype(np.float64), [0.75 + 2.0 ** -11, 0.375, 0.0, 0.75])
+
+
+def test_alpha_none_sets_the_alpha_to_one_and_keeps_the_colours():
+    """IMAGE_ALPHA_IGNORE: every alpha channel (grey and alpha too) becomes 1 (255 for bytes), colours as stored."""
+    rgba = np.array([[[200, 100, 50, 0], [1, 2, 3, 128]]], np.uint8)
+    np.testing.assert_array_equal(textures.alpha_ignored(rgba), [[[200, 100, 50, 255], [1, 2, 3, 255]]])
+    grey_alpha = np.array([[[0.5, 0.25]]], np.float32)
+    np.testing.assert_array_equal(textures.alpha_ignored(grey_alpha), [[[0.5, 1.0]]])
+    rgb = np.zeros((1, 1, 3), np.uint8)
+    assert textures.alpha_ignored(rgb) is rgb
+
+
+@pytest.mark.parametrize("which", LOOKUPS, ids=["numpy", "compiled"])
+def test_unassociating_divides_the_interpolated_colour_by_the_interpolated_alpha(which):
+    """Two float texels (c0, a0), (c1, a1) associated, read halfway by Linear: the colour (c0 a0 + c1 a1) / 2 divided
+    by the alpha (a0 + a1) / 2, the alpha kept; where the alpha is 0 or 1 nothing is divided."""
+    c0, a0, c1, a1 = 0.8, 0.5, 0.2, 0.25
+    texels = np.array([[[c0 * a0, c0 * a0, c0 * a0, a0], [c1 * a1, 0.0, 0.0, a1], [0.3, 0.3, 0.3, 0.0],
+                        [0.6, 0.6, 0.6, 1.0]]], np.float32)
+    tex = textures.TextureSet.of([textures.Image(texels)])
+    x = np.array([0.25, 0.625, 0.875])               # halfway between texels 0 and 1; texel 2 alone; texel 3 alone
+    y = np.full(3, 0.5)
+    if which is None:
+        out = textures.compiled_lookup(tex, 0, x, y, 0, 1, unassociate=True)
+        kept = textures.compiled_lookup(tex, 0, x, y, 0, 1)
+    else:
+        out = tex.lookup(0, x, y, 0, 1, unassociate=True)
+        kept = tex.lookup(0, x, y, 0, 1)
+    f32 = texels.astype(np.float64)
+    mean = (f32[0, 0] + f32[0, 1]) / 2.0
+    np.testing.assert_allclose(kept[0], mean, rtol=1e-12)
+    np.testing.assert_allclose(out[0, :3], mean[:3] / mean[3], rtol=1e-12)
+    assert out[0, 3] == pytest.approx(mean[3], rel=1e-12)
+    np.testing.assert_allclose(out[1:], kept[1:], rtol=0, atol=0)        # alpha 0 and alpha 1: left as they are
+
+
+@pytest.mark.parametrize("interpolation", [0, 1, 2])
+def test_the_compiled_lookup_unassociates_as_the_reference_for_plain_and_udim_images(interpolation):
+    """Random associated byte texels (sRGB) in a plain image and in a UDIM tile, looked up anywhere with the
+    unassociate flag: C equals numpy."""
+    rng = np.random.default_rng(3)
+    straight = rng.integers(0, 256, (5, 7, 4)).astype(np.uint8)
+    stored = textures.associated(straight)
+    tex = textures.TextureSet.of([textures.Image(stored, srgb=True),
+                                  textures.TiledImage({1001: textures.Image(stored, srgb=True)})])
+    x, y = rng.uniform(-0.5, 1.5, 300), rng.uniform(-0.5, 1.5, 300)
+    for index in (0, 1):
+        for extension in range(4):
+            reference = tex.lookup(index, x, y, interpolation, extension, unassociate=True)
+            compiled = textures.compiled_lookup(tex, index, x, y, interpolation, extension, unassociate=True)
+            np.testing.assert_allclose(compiled, reference, rtol=1e-12, atol=1e-15)
+
+
+def alpha_material(image: textures.Image, unassociate: bool, read_alpha: bool) -> Material:
+    """An Emission of an image's Color, weighed by its Alpha where `read_alpha` (the Alpha output then read)."""
+    node = GraphNode("IMAGE", {"image": image, "interpolation": "Closest", "extension": "REPEAT",
+                               "unassociate": unassociate}, {})
+    factors = [(Link(node, "Alpha"), "fac")] if read_alpha else []
+    return Material(name="Alpha", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": Link(node, "Color")}, factors)])
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_an_image_texture_gives_the_colour_and_alpha_cycles_gives_for_each_alpha_mode(kernels):
+    """A straight sRGB byte texel c = (200, 60, 10) with alpha a = 128, read as Cycles reads it per mode, the pixel
+    the Color output (times the Alpha output where it is read):
+    Straight, Alpha unused: the associated c a // 255, decoded: srgb((c a // 255) / 255);
+    Straight, Alpha read: that divided back by a / 255 before decoding: srgb((c a // 255) / a), times a / 255;
+    Channel Packed or Non-Color (colours straight, no division): srgb(c / 255) (times a / 255 where read);
+    None: srgb(c / 255), alpha 1."""
+    c, a = np.array([200, 60, 10]), 128
+    straight = np.array([[[*c, a]]], np.uint8)
+    associated = textures.Image(textures.associated(straight), srgb=True)
+    packed = textures.Image(straight, srgb=True)
+    ignored = textures.Image(textures.alpha_ignored(straight), srgb=True)
+    srgb = textures.srgb_to_linear
+    cases = [(associated, True, False, srgb((c * a // 255) / 255.0)),
+             (associated, True, True, srgb((c * a // 255) / float(a)) * (a / 255.0)),
+             (packed, False, False, srgb(c / 255.0)),
+             (packed, False, True, srgb(c / 255.0) * (a / 255.0)),
+             (ignored, False, True, srgb(c / 255.0))]
+    for image, unassociate, read_alpha, expected in cases:
+        pixels = shoot(scene_of(alpha_material(image, unassociate, read_alpha), sun=False), kernels, size=2)
+        np.testing.assert_allclose(pixels, np.broadcast_to(expected, pixels.shape), rtol=1e-6)
+
+
+def test_only_a_node_whose_alpha_output_is_read_divides_back():
+    """The unassociate flag is set on the IMAGE ops of the node whose Alpha output the program reads (box projection
+    too, all three looks), and only where its image is associated (props["unassociate"])."""
+    image = textures.Image(np.full((1, 1, 4), 0.5, np.float32))
+
+    def flags(props: dict, read_alpha: bool) -> list:
+        node = GraphNode("IMAGE", {"image": image, **props}, {})
+        factors = [(Link(node, "Alpha"), "fac")] if read_alpha else []
+        program = graph.Compiler(graph.layout_of({"uv:"}), lambda im: 0).compile(
+            [(type("Emission", (), {"inputs": ("emission",), "defaults": ((0.0, 0.0, 0.0),)}), 1.0,
+              {"emission": Link(node, "Color")}, factors)])
+        return [int(op[6]) for op in program.ops if int(op[0]) == graph.OP["IMAGE"]]
+
+    assert set(flags({"unassociate": True}, True)) == {1}
+    assert set(flags({"unassociate": True}, False)) == {0}
+    assert set(flags({"unassociate": False}, True)) == {0}
+    box = flags({"unassociate": True, "projection": "BOX", "blend": 0.2}, True)
+    assert len(box) == 6 and set(box) == {1}         # three looks for Color, three for Alpha

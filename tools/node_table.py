@@ -66,7 +66,12 @@ VECTOR_NODES = {"ShaderNodeMapping", "ShaderNodeVectorMath", "ShaderNodeVectorRo
 FAMILIES = {
     "Textures": "an emitting plane per cell, orthographic camera from above; the texture's Vector (W when 1D) reads "
                 "the Generated coordinate snapped to the pixel's centre and mapped to -2..2 (z = 0.375); its other "
-                "inputs keep their defaults; 1 sample per pixel, 1-pixel box filter",
+                "inputs keep their defaults; 1 sample per pixel, 1-pixel box filter. (The Image Texture's image here is "
+                "opaque; an image with straight alpha is held to Cycles per Alpha mode and colour space in "
+                "tests/test_blender_unmodelled.py: Cycles multiplies the colours of an sRGB image with Alpha Straight or "
+                "Premultiplied by their alpha when it loads it (bytes truncated: (c a) // 255), keeps them as stored "
+                "for Non-Color and Channel Packed, reads alpha 1 for None, and divides the interpolated colour back by "
+                "its alpha where the Alpha output is used; Primer does the same, both kernels)",
     "Converters": "an emitting plane per cell, orthographic camera from above; every float input reads the snapped "
                   "Generated x or y (-2..2; a Fac or Factor reads (x + 2) / 4), a vector input (x, y, 0.375), a "
                   "colour ((x + 2) / 4, (y + 2) / 4, 0.6) (a node's second vector or colour input (y, x, -0.625) or "

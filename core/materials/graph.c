@@ -656,7 +656,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             attributes = offset_attr;
             break;
         case OP_IMAGE:
-            texture_lookup(G->textures, a[2], reg[a[1]], reg[a[1] + 1], a[3], a[4], out);
+            texture_lookup(G->textures, a[2], reg[a[1]], reg[a[1] + 1], a[3], a[4], a[5], out);
             break;
         case OP_MAPPING: {
             const double *v = reg + a[1], *loc = reg + a[2], *rot = reg + a[3], *scale = reg + a[4];

@@ -209,7 +209,8 @@ class GraphNode:
     """A texture or colour node: its kind (a key of NODE_OUTPUTS), properties and inputs.
 
     inputs: socket name -> a constant (float or (3,)) or a Link; props: the node's settings (for
-    IMAGE: "image" a textures.Image or None when missing, "interpolation", "extension"; for RAMP:
+    IMAGE: "image" a textures.Image or None when missing, "interpolation", "extension", "unassociate" (Cycles divides the
+    colour back by the alpha where the Alpha output is read: Compiler.mark_unassociate); for RAMP:
     "table" (256, 4) float64 and "interpolate").
     """
 
@@ -530,6 +531,8 @@ class Compiler:
         self.blocks: list = []                  # (first temporary, width) of each block `temporary` made
         self.warnings = warnings if warnings is not None else []
         self.material = material
+        self.image_ops: dict = {}               # id of an Image Texture GraphNode -> its IMAGE ops
+        self.alpha_read: set = set()            # ids of the Image Texture GraphNodes whose Alpha output is read
 
     # Registers: constants are numbered 0.. in order; computed registers get negative provisional
     # numbers -1, -2, ... and are renumbered after the constants when the program is done.
@@ -814,17 +817,20 @@ class Compiler:
             self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
             return out, width, vtype
         if kind == "IMAGE":
+            if output == "Alpha":
+                self.alpha_read.add(id(node))
             vector = (self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link)
                       else self.attribute("uv:"))
             projection = props.get("projection", "FLAT")
             if projection == "BOX":
-                return self.image_box(vector, props, output)
+                return self.image_box(vector, props, output, node)
             if projection in ("SPHERE", "TUBE"):
                 vector = self.sphere_or_tube(vector, projection)
             out = self.temporary(4)
             index = self.image_index(props.get("image"))
             self.emit("IMAGE", out, vector, index, textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0),
-                      textures_.EXTENSIONS.get(props.get("extension", "REPEAT"), 0))
+                      textures_.EXTENSIONS.get(props.get("extension", "REPEAT"), 0), 0)
+            self.image_ops.setdefault(id(node), (node, []))[1].append(self.ops[-1])
             return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
         if kind == "ENVIRONMENT":
             return self.environment(inp, props, output)
@@ -1002,10 +1008,10 @@ class Compiler:
                       self.math("GREATER_THAN", length2, zero))
         return self.vector_of(u, v, zero)
 
-    def image_box(self, vector: int, props: dict, output: str) -> tuple:
-        """Emit an Image Texture's BOX projection as Cycles' svm_node_tex_image_box: the object-space normal's |N|
-        (summed to 1) weighs the three axis-aligned looks at the image, one face alone near each axis, two or three
-        blended over the band props["blend"] wide; return (register, width, type) of `output`."""
+    def image_box(self, vector: int, props: dict, output: str, node: GraphNode) -> tuple:
+        """Emit an Image Texture's (`node`'s) BOX projection as Cycles' svm_node_tex_image_box: the object-space
+        normal's |N| (summed to 1) weighs the three axis-aligned looks at the image, one face alone near each axis, two
+        or three blended over the band props["blend"] wide; return (register, width, type) of `output`."""
         blend = float(props.get("blend", 0.0))
         limit = 0.5 * (1.0 + blend)
         normal = self.geometry("Object Normal")
@@ -1074,12 +1080,23 @@ class Compiler:
             sample = self.temporary(4)
             self.emit("IMAGE", sample, self.vector_of(u, v, zero), index,
                       textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0),
-                      textures_.EXTENSIONS.get(props.get("extension", "REPEAT"), 0))
+                      textures_.EXTENSIONS.get(props.get("extension", "REPEAT"), 0), 0)
+            self.image_ops.setdefault(id(node), (node, []))[1].append(self.ops[-1])
             total = [self.math("MULTIPLY", weight, shift(sample, k)) if total is None
                      else self.math("MULTIPLY_ADD", weight, shift(sample, k), total[k]) for k in range(4)]
         if output == "Color":
             return self.vector_of(*total[:3]), 3, "color"
         return total[3], 1, "float"
+
+    def mark_unassociate(self) -> None:
+        """Set the unassociate flag (the IMAGE op's last argument) of every Image Texture whose Alpha output this
+        program reads and whose image Cycles associates (props["unassociate"]: a colour image with Alpha Straight or
+        Premultiplied), as Cycles' ImageTextureNode::compile sets NODE_IMAGE_ALPHA_UNASSOCIATE where the Alpha output
+        has links: its Color output is then the colour divided back by the alpha, for every lookup of that node."""
+        for key, (node, ops) in self.image_ops.items():
+            flag = 1 if key in self.alpha_read and node.props.get("unassociate") else 0
+            for op in ops:
+                op[6] = flag
 
     def environment(self, inp: dict, props: dict, output: str) -> tuple:
         """Emit an Environment Texture as Cycles' svm_node_tex_environment looks it up: the direction (its Vector, else
@@ -1104,7 +1121,7 @@ class Compiler:
                           half)
         out = self.temporary(4)
         self.emit("IMAGE", out, self.vector_of(u, v, zero), self.image_index(props.get("image")),
-                  textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0), textures_.EXTENSIONS["REPEAT"])
+                  textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0), textures_.EXTENSIONS["REPEAT"], 0)
         return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
 
     def sky(self, inp: dict, props: dict) -> tuple:
@@ -1177,6 +1194,7 @@ class Compiler:
             for first, channels, source in aovs:
                 width = 3 if channels == 4 else 1
                 self.outputs.append([OUT_AOV, first, 0, width, self.value(source, width)])
+        self.mark_unassociate()
         c = len(self.constants)
         registers = c + self.temporaries
         if registers > MAX_REGISTERS:
@@ -1405,7 +1423,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             attributes = ((sp.attributes + where[0][:, None] * sp.d_du) + where[1][:, None] * sp.d_dv if i[0]
                           else sp.attributes)
         elif name == "IMAGE":
-            reg[:, i[0]:i[0] + 4] = textures.lookup(i[2], reg[:, i[1]], reg[:, i[1] + 1], i[3], i[4])
+            reg[:, i[0]:i[0] + 4] = textures.lookup(i[2], reg[:, i[1]], reg[:, i[1] + 1], i[3], i[4], bool(i[5]))
         elif name == "MAPPING":
             v, loc, rot, scale = R(1, 3), R(2, 3), R(3, 3), R(4, 3)
             M = euler_matrix(rot)

@@ -95,9 +95,10 @@ INLINE int texture_tile(const TextureTables *T, int index, double *x, double *y)
     return -1;
 }
 
-/* TextureSet.lookup for one point: image `index` (-1: missing, magenta) at (x, y) -> RGBA out[4]. */
+/* TextureSet.lookup for one point: image `index` (-1: missing, magenta) at (x, y) -> RGBA out[4]; `unassociate`
+ * nonzero: the colour divided by an alpha neither 0 nor 1 before the sRGB decoding (textures.unassociated). */
 INLINE void texture_lookup(const TextureTables *T, int index, double x, double y, int interpolation, int extension,
-                           double *out)
+                           int unassociate, double *out)
 {
     if (index >= 0 && T != NULL && index < (int)T->count && T->tile_count[index] > 0)
         index = texture_tile(T, index, &x, &y);
@@ -145,6 +146,8 @@ INLINE void texture_lookup(const TextureTables *T, int index, double x, double y
         }
     }
 decode:
+    if (unassociate && out[3] != 0.0 && out[3] != 1.0)
+        for (int c = 0; c < 3; c++) out[c] /= out[3];
     if (T->srgb[index] != 0.0)
         for (int c = 0; c < 3; c++) out[c] = srgb_to_linear(out[c]);
 }
@@ -154,5 +157,5 @@ static void texture_lookup_rows(const TextureLookupArgs *a)
 {
     for (int64_t i = 0; i < a->n; i++)
         texture_lookup(a->textures, (int)a->index, a->x[i], a->y[i], (int)a->interpolation, (int)a->extension,
-                       a->rgba + 4 * i);
+                       (int)a->unassociate, a->rgba + 4 * i);
 }

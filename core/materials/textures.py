@@ -279,14 +279,16 @@ class TextureSet:
         start = int(self.offset[index])
         return data[start:start + w * h * c].reshape(h, w, c)
 
-    def lookup(self, index: int, x: np.ndarray, y: np.ndarray, interpolation: int, extension: int) -> np.ndarray:
+    def lookup(self, index: int, x: np.ndarray, y: np.ndarray, interpolation: int, extension: int,
+               unassociate: bool = False) -> np.ndarray:
         """Image `index` at texture coordinates (x, y) (n,) float64 -> RGBA (n, 4) float64, linear.
-        index -1 is the missing image (magenta)."""
+        index -1 is the missing image (magenta). unassociate: the interpolated colour divided by its alpha where that
+        is neither 0 nor 1, before the sRGB decoding (Cycles' NODE_IMAGE_ALPHA_UNASSOCIATE, `unassociated`)."""
         n = len(x)
         if index < 0:
             return np.tile(np.array(MISSING), (n, 1))
         if len(self.tile_count) and self.tile_count[index] > 0:
-            return self.tiled_lookup(index, x, y, interpolation, extension)
+            return self.tiled_lookup(index, x, y, interpolation, extension, unassociate)
         data = self.texels(index)
         if interpolation == 1:
             rgba = closest(data, x, y, extension)
@@ -294,15 +296,17 @@ class TextureSet:
             rgba = cubic(data, x, y, extension)
         else:
             rgba = linear(data, x, y, extension)
+        if unassociate:
+            rgba = unassociated(rgba)
         if self.srgb[index]:
             rgba[:, :3] = srgb_to_linear(rgba[:, :3])
         return rgba
 
 
     def tiled_lookup(self, index: int, x: np.ndarray, y: np.ndarray, interpolation: int,
-                     extension: int) -> np.ndarray:
+                     extension: int, unassociate: bool = False) -> np.ndarray:
         """UDIM image `index` at (x, y) (n,) float64 -> RGBA (n, 4) float64: each point's tile (tile_of) looked up at
-        (x - tx, y - ty); magenta where no tile is, or the tile could not be read."""
+        (x - tx, y - ty) (`unassociate` as `lookup`); magenta where no tile is, or the tile could not be read."""
         x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
         number, tx, ty = tile_of(x, y)
         out = np.tile(np.array(MISSING), (len(x), 1))
@@ -311,8 +315,79 @@ class TextureSet:
             here = np.flatnonzero(number == self.tile_number[entry])
             if len(here):
                 out[here] = self.lookup(int(self.tile_image[entry]), x[here] - tx[here], y[here] - ty[here],
-                                        interpolation, extension)
+                                        interpolation, extension, unassociate)
         return out
+
+
+def unassociated(rgba: np.ndarray) -> np.ndarray:
+    """Interpolated texels (n, 4) float64 with their colour divided by their alpha where it is neither 0 nor 1 (the
+    alpha kept), as Cycles' svm_image_texture does for NODE_IMAGE_ALPHA_UNASSOCIATE: the straight colour of an image
+    whose colours were multiplied by their alpha when read (`associated`)."""
+    alpha = rgba[:, 3:4]
+    divide = (alpha != 0.0) & (alpha != 1.0)
+    out = rgba.copy()
+    out[:, :3] = np.where(divide, rgba[:, :3] / np.where(divide, alpha, 1.0), rgba[:, :3])
+    return out
+
+
+def opaque_value(dtype) -> float:
+    """The stored value of alpha 1 in pixels of `dtype`: 255 for uint8, 65535 for uint16, else 1."""
+    return float(np.iinfo(dtype).max) if np.dtype(dtype).kind in "ui" else 1.0
+
+
+def alpha_channel(pixels: np.ndarray) -> int:
+    """The channel of pixels (h, w, c) that Cycles reads as alpha: 1 of grey and alpha (c 2), 3 of four or more
+    channels, -1 for none (c 1 or 3)."""
+    c = pixels.shape[2] if pixels.ndim == 3 else 1
+    return 1 if c == 2 else 3 if c >= 4 else -1
+
+
+def has_alpha_below_one(pixels: np.ndarray) -> bool:
+    """Whether pixels (h, w, c) have an alpha channel (alpha_channel) with some value below 1."""
+    k = alpha_channel(pixels)
+    return k >= 0 and bool((pixels[..., k] < opaque_value(pixels.dtype)).any())
+
+
+def half_truncated(values: np.ndarray) -> np.ndarray:
+    """float32 values (...) as halves the way Cycles' CPU float_to_half_image makes them: the mantissa truncated
+    (not rounded), magnitudes below 2^-14 flushed to 0, those above 65504 (and inf, NaN) clamped to 65504, the sign
+    kept -> (...) float16."""
+    u = np.ascontiguousarray(values, np.float32).view(np.uint32).astype(np.int64)
+    sign = (u & 0x80000000) >> 16
+    exponent = u & 0x7F800000
+    bits = ((u & 0x7FFFFFFF) >> 13) - 0x1C000
+    bits = np.where(exponent < 0x38800000, 0, np.where(exponent > 0x47000000, 0x7BFF, bits))
+    return (bits | sign).astype(np.uint16).view(np.float16)
+
+
+def associated(pixels: np.ndarray) -> np.ndarray:
+    """RGBA pixels (h, w, 4) with straight alpha as Cycles associates them when it loads an image
+    (util_image_multiply_native, before any colour decoding: sRGB values stay encoded): each colour times its alpha
+    in the stored type, bytes as (c a) // 255 and shorts as (c a) // 65535 (truncated), half floats as the float32
+    product made half by half_truncated, floats as the float32 product; the alpha kept. Cycles does so for exactly
+    4 channels (grey and alpha stays straight): other pixels, and pixels with no alpha below 1, are given back as they
+    are (no copy)."""
+    if pixels.ndim != 3 or pixels.shape[2] != 4 or not has_alpha_below_one(pixels):
+        return pixels
+    out = pixels.copy()
+    if pixels.dtype.kind in "ui":
+        wide = pixels.astype(np.uint32)
+        out[..., :3] = (wide[..., :3] * wide[..., 3:4]) // np.uint32(opaque_value(pixels.dtype))
+    elif pixels.dtype == np.float16:
+        out[..., :3] = half_truncated(pixels[..., :3].astype(np.float32) * pixels[..., 3:4].astype(np.float32))
+    else:
+        out[..., :3] = pixels[..., :3] * pixels[..., 3:4]
+    return out
+
+
+def alpha_ignored(pixels: np.ndarray) -> np.ndarray:
+    """Pixels (h, w, c) with their alpha (alpha_channel) set to 1, as Cycles reads an image whose Alpha mode is None
+    (IMAGE_ALPHA_IGNORE); pixels without alpha, or with no alpha below 1, are given back as they are (no copy)."""
+    if not has_alpha_below_one(pixels):
+        return pixels
+    out = pixels.copy()
+    out[..., alpha_channel(pixels)] = opaque_value(pixels.dtype)
+    return out
 
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -419,6 +494,7 @@ TextureLookupArgs = schema.function("primer_texture_lookup", "texture_lookup_row
     ("index", I64, ""),
     ("interpolation", I32, "TEX_LINEAR, TEX_CLOSEST, TEX_CUBIC"),
     ("extension", I32, "EXT_REPEAT, EXT_EXTEND, EXT_CLIP, EXT_MIRROR"),
+    ("unassociate", I32, "1: the colour divided by its alpha (textures.unassociated)"),
     ("n", I64, ""),
     ("x", ptr(F64), "(n,)"),
     ("y", ptr(F64), "(n,)"),
@@ -437,11 +513,12 @@ def texture_tables(textures: TextureSet) -> TextureTablesRecord:
 
 
 def compiled_lookup(textures: TextureSet, index: int, x: np.ndarray, y: np.ndarray, interpolation: int,
-                    extension: int) -> np.ndarray:
+                    extension: int, unassociate: bool = False) -> np.ndarray:
     """TextureSet.lookup in C (textures.c), for the tests: RGBA (n, 4) float64."""
     x, y = library.contiguous(x, np.float64), library.contiguous(y, np.float64)
     out_ = np.empty((len(x), 4))
     library.call("primer_texture_lookup", TextureLookupArgs(
-        textures=texture_tables(textures), index=index, interpolation=interpolation, extension=extension, n=len(x),
+        textures=texture_tables(textures), index=index, interpolation=interpolation, extension=extension,
+        unassociate=int(bool(unassociate)), n=len(x),
         x=x, y=y, rgba=out_))
     return out_

@@ -1273,6 +1273,7 @@ struct TextureLookupArgs {
     int64_t index;
     int32_t interpolation;                  /* TEX_LINEAR, TEX_CLOSEST, TEX_CUBIC */
     int32_t extension;                      /* EXT_REPEAT, EXT_EXTEND, EXT_CLIP, EXT_MIRROR */
+    int32_t unassociate;                    /* 1: the colour divided by its alpha (textures.unassociated) */
     int64_t n;
     const double *x;                        /* (n,) */
     const double *y;                        /* (n,) */
@@ -1405,7 +1406,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "SkyMultipleArgs") == 0) return UINT64_C(8745123704423823932);
     if (strcmp(name, "SkySingleArgs") == 0) return UINT64_C(7958716256533574401);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
-    if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
+    if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(7906311474424889977);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(219872329779630044);
     if (strcmp(name, "MediaTables") == 0) return UINT64_C(395041555413493401);

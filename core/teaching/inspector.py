@@ -401,8 +401,9 @@ class _RecordingTextures:
     def __init__(self, textures, images: list):
         self.textures, self.images, self.found = textures, images, []
 
-    def lookup(self, index, x, y, interpolation, extension):
-        rgba = self.textures.lookup(index, x, y, interpolation, extension)
+    def lookup(self, index, x, y, interpolation, extension, unassociate=False):
+        """TextureSet.lookup, kept as a TextureRecord (the RGBA the graph reads, divided back where `unassociate`)."""
+        rgba = self.textures.lookup(index, x, y, interpolation, extension, unassociate)
         name = self.images[index].name if 0 <= index < len(self.images) else "(missing: magenta)"
         self.found.append(TextureRecord(name, float(x[0]), float(y[0]), int(interpolation), int(extension),
                                         rgba[0].copy()))
