@@ -521,7 +521,8 @@ class GraphReader:
             props = {"image": load_image(node.image, self.reader, node),
                      "interpolation": node.interpolation, "extension": node.extension,
                      "projection": node.projection, "blend": float(node.projection_blend),
-                     "unassociate": unassociates(node.image, node)}
+                     "unassociate": unassociates(node.image, node),
+                     "alpha_read": alpha_read(self.reader.material, path, node)}
             inputs = self.inputs(node, path, ["Vector"])
             if not node.inputs["Vector"].is_linked:
                 inputs = {}
@@ -849,6 +850,21 @@ def alpha_rule(image) -> str:
     return "straight" if data or image.alpha_mode == "CHANNEL_PACKED" else "associate"
 
 
+def alpha_read(owner, path: tuple, node) -> list:
+    """[whether a compiled program reads the Alpha output of Image Texture `node` (inside the groups `path`) of
+    `owner` (a material, world or light)], one list shared by the GraphNodes each reader makes of that node (its
+    surface's, AOVs', volume's, displacement's), set and read by graph.Compiler (mark_unassociate): Cycles compiles
+    them as one graph, whose Image Texture divides back wherever its Alpha output has links."""
+    key = (_pointer(owner), tuple(_pointer(g) for g in path), _pointer(node))
+    return _ALPHA_READ.setdefault(key, [False])
+
+
+def _pointer(thing) -> int:
+    """A Blender struct's address (as_pointer), else the Python object's id."""
+    pointer = getattr(thing, "as_pointer", None)
+    return pointer() if pointer is not None else id(thing)
+
+
 def unassociates(image, node) -> bool:
     """Whether Cycles divides an Image Texture's colour back by its alpha where the node's Alpha output is read
     (ImageTextureNode::compile's NODE_IMAGE_ALPHA_UNASSOCIATE): for an image it associates (alpha_rule), whatever its
@@ -927,6 +943,8 @@ def tile_path(path: str, tile: int) -> str:
 # Images read in this export, by (image pointer, frame) (cleared by `begin_export`), and the scene's frame.
 _IMAGES: dict = {}
 _FRAME = [1]
+# Which Image Textures' Alpha outputs this export reads (alpha_read), by (owner, group path, node).
+_ALPHA_READ: dict = {}
 # Decoded image files (_decoded): those of this export, and those of the export before it.
 _DECODED_NOW: dict = {}
 _DECODED_BEFORE: dict = {}
@@ -939,6 +957,7 @@ def begin_export(frame: int = 1, view_layer=None, texture_limit: int = 0, textur
     and at `texture_resolution` (Blender 5.2's Simplify > Texture Resolution, texture_resolution_of; 1: full)."""
     global _DECODED_BEFORE, _DECODED_NOW
     _IMAGES.clear()
+    _ALPHA_READ.clear()
     _DECODED_BEFORE, _DECODED_NOW = _DECODED_NOW, {}
     INSTANCE_ATTRIBUTES.clear()
     ATTRIBUTE_NOTES.clear()

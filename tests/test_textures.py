@@ -936,8 +936,9 @@ def test_an_image_texture_gives_the_colour_and_alpha_cycles_gives_for_each_alpha
 
 
 def test_only_a_node_whose_alpha_output_is_read_divides_back():
-    """The unassociate flag is set on the IMAGE ops of the node whose Alpha output the program reads (box projection
-    too, all three looks), and only where its image is associated (props["unassociate"])."""
+    """The unassociate flag is set on the IMAGE ops of the node whose Alpha output the program reads, or another
+    program reads (props["alpha_read"]) (box projection too, all three looks), and only where its image is
+    associated (props["unassociate"])."""
     image = textures.Image(np.full((1, 1, 4), 0.5, np.float32))
 
     def flags(props: dict, read_alpha: bool) -> list:
@@ -951,5 +952,11 @@ def test_only_a_node_whose_alpha_output_is_read_divides_back():
     assert set(flags({"unassociate": True}, True)) == {1}
     assert set(flags({"unassociate": True}, False)) == {0}
     assert set(flags({"unassociate": False}, True)) == {0}
+    # (read by another program of the same Blender node, an AOV's or the displacement's: the addon's shared flag)
+    assert set(flags({"unassociate": True, "alpha_read": [True]}, False)) == {1}
+    assert set(flags({"unassociate": True, "alpha_read": [False]}, False)) == {0}
+    shared = [False]
+    flags({"unassociate": True, "alpha_read": shared}, True)
+    assert shared == [True]                          # (what this program read, told to the node's other GraphNodes)
     box = flags({"unassociate": True, "projection": "BOX", "blend": 0.2}, True)
     assert len(box) == 6 and set(box) == {1}         # three looks for Color, three for Alpha

@@ -819,6 +819,8 @@ class Compiler:
         if kind == "IMAGE":
             if output == "Alpha":
                 self.alpha_read.add(id(node))
+                if isinstance(props.get("alpha_read"), list):     # (shared with the node's other GraphNodes)
+                    props["alpha_read"][0] = True
             vector = (self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link)
                       else self.attribute("uv:"))
             projection = props.get("projection", "FLAT")
@@ -1089,12 +1091,15 @@ class Compiler:
         return total[3], 1, "float"
 
     def mark_unassociate(self) -> None:
-        """Set the unassociate flag (the IMAGE op's last argument) of every Image Texture whose Alpha output this
-        program reads and whose image Cycles associates (props["unassociate"]: a colour image with Alpha Straight or
-        Premultiplied), as Cycles' ImageTextureNode::compile sets NODE_IMAGE_ALPHA_UNASSOCIATE where the Alpha output
-        has links: its Color output is then the colour divided back by the alpha, for every lookup of that node."""
+        """Set the unassociate flag (the IMAGE op's last argument) of every Image Texture whose Alpha output is read
+        and whose image Cycles associates (props["unassociate"]: a colour image with Alpha Straight or Premultiplied),
+        as Cycles' ImageTextureNode::compile sets NODE_IMAGE_ALPHA_UNASSOCIATE where the Alpha output has links: its
+        Color output is then the colour divided back by the alpha, for every lookup of that node. Read: by this
+        program, or from another GraphNode of the same Blender node (an AOV's, a program compiled before this one),
+        which props["alpha_read"], a [bool] the addon shares between them, tells."""
         for key, (node, ops) in self.image_ops.items():
-            flag = 1 if key in self.alpha_read and node.props.get("unassociate") else 0
+            read = key in self.alpha_read or bool(node.props.get("alpha_read", [False])[0])
+            flag = 1 if read and node.props.get("unassociate") else 0
             for op in ops:
                 op[6] = flag
 
