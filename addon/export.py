@@ -991,6 +991,8 @@ def export_world(world, warnings: list, kernels: str = "compiled") -> World:
     rays of a kind it hides from find nothing where they escape, and its light samples light no closure of that
     kind (no scattering point for Volume Scatter), as Cycles' SHADER_EXCLUDE_* flags; and its AOV Output nodes
     (World.aovs: what camera rays that escape write into the shader AOVs, core/integrators/passes.py)."""
+    if world is not None:
+        materials_.forget_alpha_reads(world)
     core = _export_world(world, warnings, kernels)
     aovs = materials_.aov_outputs(world, warnings, kind="world", kernels=kernels) if world is not None else []
     if aovs:

@@ -859,6 +859,14 @@ def alpha_read(owner, path: tuple, node) -> list:
     return _ALPHA_READ.setdefault(key, [False])
 
 
+def forget_alpha_reads(owner) -> None:
+    """Drop what alpha_read knew of `owner`'s nodes: it is being read anew (a viewport update re-exports a material
+    without begin_export), its programs compiled anew."""
+    pointer = _pointer(owner)
+    for key in [key for key in _ALPHA_READ if key[0] == pointer]:
+        del _ALPHA_READ[key]
+
+
 def _pointer(thing) -> int:
     """A Blender struct's address (as_pointer), else the Python object's id."""
     pointer = getattr(thing, "as_pointer", None)
@@ -1867,6 +1875,7 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
 def export_material(material, warnings: list) -> Material:
     """A Blender material as a core Material: a plain Diffuse BSDF (or no node tree: the viewport colour)
     stays the constant Lambert material; anything else becomes shader nodes."""
+    forget_alpha_reads(material)
     sampling = str(getattr(getattr(material, "cycles", None), "emission_sampling", "AUTO"))
     # Settings > Transparent Shadows (Blender 4.2 and later; Cycles reads it too): off, shadow rays stop at it.
     shadows = bool(getattr(material, "use_transparent_shadow", True))
