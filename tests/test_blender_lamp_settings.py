@@ -64,7 +64,8 @@ def blocks(image):
     return image[:h, :w].reshape(h // 4, 4, w // 4, 4, -1).mean(axis=(1, 3))
 
 
-def case(name, kind, location, energy, surface=None, **settings):
+def case(name, kind, location, energy, surface=None, samples={primer_samples}, cycles_samples={cycles_samples},
+         **settings):
     obj = lamp(kind, location, energy, **settings)
     floor = bpy.data.objects["Floor"]
     floor.data.materials[0] = surface or material
@@ -72,8 +73,8 @@ def case(name, kind, location, energy, surface=None, **settings):
     core = export.export_light(bpy.context.evaluated_depsgraph_get().objects[obj.name],
                                np.array(obj.matrix_world, np.float64), warnings)
     fields = dict() if core is None else {{k: v for k, v in vars(core).items() if isinstance(v, (bool, int, float))}}
-    p = render_pixels(scene, "PRIMER", os.path.abspath(name + "_primer.exr"), {primer_samples})[..., :3]
-    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), {cycles_samples}, name)[..., :3]
+    p = render_pixels(scene, "PRIMER", os.path.abspath(name + "_primer.exr"), samples)[..., :3]
+    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), cycles_samples, name)[..., :3]
     bp, bc = blocks(p), blocks(c)
     cases[name] = dict(fields=fields, warnings=warnings, rel_mse=float(np.mean((bp - bc) ** 2 / (bc ** 2 + 0.01))),
                        primer_mean=float(p.mean()), cycles_mean=float(c.mean()))
@@ -172,6 +173,12 @@ for name in {cases!r}:
             tree.links.new(coordinates.outputs["Normal"], separate.inputs["Vector"])
             tree.links.new(separate.outputs["Z"], emission.inputs["Strength"])
         case(name, "POINT", (2.0, 0.0, 1.2), 300.0, **{{"data": data}})
+    elif name.startswith("narrow spread"):
+        # A lamp of 15 degree Spread, tilted: both renderers sample only the part of it that can light each point.
+        # (Cycles' square at 128 samples alone leaves a block relative MSE of 1.5e-3: more samples for both.)
+        case(name, "AREA", (0.0, 0.0, 1.5), 200.0, samples=128, cycles_samples=1024, **{{"data.size": 2.0, "data.spread": math.radians(15.0),
+                                                   "data.shape": name.split()[-1].upper(),
+                                                   "rotation_euler": (0.3, 0.0, 0.0)}})
     elif name == "seen by all":
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0)}})
@@ -184,7 +191,8 @@ report(cases=cases)
 # The cases that path-trace (Max Bounces, the lamp's and the world's) come last: each sets the integrator itself.
 CASES = ["cast shadow off", "cast shadow on", "seen by all", "hidden from diffuse", "hidden from glossy",
          "hidden from camera", "mis off", "negative lamp", "metal point", "metal spot", "metal sun",
-         "sun seen by camera", "lamp nodes constant", "lamp nodes varying", "max bounces 0", "max bounces 1024",
+         "sun seen by camera", "lamp nodes constant", "lamp nodes varying", "narrow spread square", "narrow spread disk",
+         "max bounces 0", "max bounces 1024",
          "world max bounces 0", "world max bounces 1024"]
 
 
@@ -306,3 +314,17 @@ def test_a_lamps_emission_fed_by_constant_nodes_renders_as_cycles(all_cases):
         case = cases[name]
         print(name, case["rel_mse"], case["primer_mean"], case["cycles_mean"])
         assert case["warnings"] == [] and case["rel_mse"] < BLOCK_TOLERANCE, (name, case)
+
+
+def test_a_narrow_spread_lamp_renders_as_cycles(all_cases):
+    """A square and a disk lamp of 15 degree Spread, tilted 0.3 rad, over the floor and occluder: Primer's light samples
+    come from the clamped region (core/lights/area.py spread_region) as Cycles' do, and the floor is Cycles' (block
+    relative MSE, and the mean within 2 %), no warning. (Primer 128 samples, Cycles 1024; measured with Primer at 1024
+    and Cycles at 2048: block relative MSE 8.5e-5 and 1.9e-5, means 0.10 % and 0.04 % apart.)"""
+    cases = run_cases(all_cases, ["narrow spread square", "narrow spread disk"])
+    for name, case in cases.items():
+        print(name, case["rel_mse"], case["primer_mean"], case["cycles_mean"])
+    for name, case in cases.items():
+        assert case["fields"]["spread"] < 0.3 and case["warnings"] == [], (name, case)
+        assert case["rel_mse"] < BLOCK_TOLERANCE, (name, case)
+        assert abs(case["primer_mean"] / case["cycles_mean"] - 1.0) < 0.02, (name, case)

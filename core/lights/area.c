@@ -1,5 +1,7 @@
 /* Area lights: core/lights/area.py, a one-sided planar emitter: a square or rectangle sampled over its spherical
- * rectangle where it is large against its distance, else (and a disk or ellipse) uniformly over its area. */
+ * rectangle where it is large against its distance, else (and a disk or ellipse) uniformly over its area; under a
+ * narrow spread, only the part of it that can light the point (area_spread_region, Cycles'
+ * area_light_spread_clamp_light). */
 
 /* (emitters.c, included after this file, defines these: the spherical rectangle of Urena et al.) */
 INLINE double rectangle_solid_angle(const double *P, const double *R);
@@ -41,6 +43,100 @@ INLINE double area_spread(const LightRecord *light, double cos_light)
     return at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
 }
 
+/* AreaLight.spread_clamps: a spread below 180 degrees on a lamp whose edges meet each other and its direction at
+ * right angles (to 1e-9): it samples only the part of it that can light the point (area_spread_region). */
+INLINE int area_spread_clamps(const LightRecord *light)
+{
+    const double *U = light->axis_u, *V = light->axis_v;
+    double lu = sqrt(dot3(U, U)), lv = sqrt(dot3(V, V));
+    return light->spread_narrow != 0.0 && lu * lv > 0.0 && fabs(dot3(U, V)) <= 1e-9 * lu * lv
+           && fabs(dot3(U, light->direction)) <= 1e-9 * lu && fabs(dot3(V, light->direction)) <= 1e-9 * lv;
+}
+
+/* area.SpreadRegion for one point: the region's centre, full edges U, V, whether it is an ellipse (else a
+ * rectangle) and whether it is empty. */
+typedef struct {
+    double center[3], U[3], V[3];
+    int round, empty;
+} SpreadRegion;
+
+/* AreaLight.spread_region for one point P (Cycles' area_light_spread_clamp_light): the clamped rectangle of a
+ * square or rectangle; for an ellipse that, the spread disk or the whole lamp; for a disk the lens's rectangle, the
+ * spread disk or the whole lamp; the smallest. */
+INLINE void area_spread_region(const LightRecord *light, const double *P, SpreadRegion *g)
+{
+    const double *n = light->direction, *c = light->position, *axis_u = light->axis_u, *axis_v = light->axis_v;
+    double lu = sqrt(dot3(axis_u, axis_u)), lv = sqrt(dot3(axis_v, axis_v));
+    double eu[3], ev[3], to_P[3], foot[3], from_c[3];
+    for (int k = 0; k < 3; k++) {
+        eu[k] = axis_u[k] / lu;
+        ev[k] = axis_v[k] / lv;
+        to_P[k] = P[k] - c[k];
+    }
+    double h = dot3(to_P, n), r = h * light->spread_tan_half;
+    for (int k = 0; k < 3; k++) {
+        foot[k] = P[k] - h * n[k];
+        from_c[k] = foot[k] - c[k];
+    }
+    double su = dot3(from_c, eu), sv = dot3(from_c, ev);
+    double lo_u = at_least(su - r, -0.5 * lu), hi_u = at_most(su + r, 0.5 * lu);
+    double lo_v = at_least(sv - r, -0.5 * lv), hi_v = at_most(sv + r, 0.5 * lv);
+    g->empty = !(h > 0.0) || lo_u >= hi_u || lo_v >= hi_v;
+    double mid_u = 0.5 * (lo_u + hi_u), mid_v = 0.5 * (lo_v + hi_v);
+    for (int k = 0; k < 3; k++) {
+        g->center[k] = c[k] + mid_u * eu[k] + mid_v * ev[k];
+        g->U[k] = (hi_u - lo_u) * eu[k];
+        g->V[k] = (hi_v - lo_v) * ev[k];
+    }
+    g->round = 0;
+    if (light->ellipse == 0.0) return;
+    double spread_area = PI * r * r, lamp_area = 0.25 * PI * lu * lv;
+    int rectangle, use_spread;
+    if (fabs(lu - lv) <= 1e-9 * (lu > lv ? lu : lv)) {              /* a disk: how the two disks meet */
+        double R = 0.5 * lu, d = hypot(su, sv);
+        g->empty = !(h > 0.0) || d >= R + r;
+        int inner = d <= fabs(R - r);
+        double lens_u = R + r - d, chord = d + (r * r - R * R) / d;
+        double lens_v = fabs(R * R - r * r) >= d * d ? 2.0 * (R < r ? R : r)
+                        : sqrt(at_least((2.0 * r) * (2.0 * r) - chord * chord, 0.0));
+        rectangle = !inner && lens_u * lens_v < (lamp_area < spread_area ? lamp_area : spread_area);
+        use_spread = inner ? r < R : !rectangle && spread_area < lamp_area;
+        if (rectangle) {
+            double to_center[3], across[3];
+            for (int k = 0; k < 3; k++) to_center[k] = (c[k] - foot[k]) / d;    /* (d > 0 outside `inner`) */
+            cross3(n, to_center, across);
+            for (int k = 0; k < 3; k++) {
+                g->center[k] = 0.5 * (c[k] + foot[k] + (r - R) * to_center[k]);
+                g->U[k] = lens_u * to_center[k];
+                g->V[k] = lens_v * across[k];
+            }
+        }
+    } else {                                                        /* an ellipse */
+        rectangle = (hi_u - lo_u) * (hi_v - lo_v) < (lamp_area < spread_area ? lamp_area : spread_area);
+        use_spread = !rectangle && spread_area < lamp_area;
+    }
+    if (rectangle) return;
+    g->round = 1;
+    for (int k = 0; k < 3; k++) {
+        g->center[k] = use_spread ? c[k] + su * eu[k] + sv * ev[k] : c[k];
+        g->U[k] = use_spread ? 2.0 * r * eu[k] : axis_u[k];
+        g->V[k] = use_spread ? 2.0 * r * ev[k] : axis_v[k];
+    }
+}
+
+/* SpreadRegion's area: |U x V|, times pi / 4 for an ellipse; and its rectangle [corner, U, V] (9,). */
+INLINE double spread_region_area(const SpreadRegion *g, double *R)
+{
+    double w[3];
+    cross3(g->U, g->V, w);
+    for (int k = 0; k < 3; k++) {
+        R[k] = g->center[k] - 0.5 * g->U[k] - 0.5 * g->V[k];
+        R[3 + k] = g->U[k];
+        R[6 + k] = g->V[k];
+    }
+    return sqrt(dot3(w, w)) * (g->round ? 0.25 * PI : 1.0);
+}
+
 /* Where on a DISK or ELLIPSE light the sample u falls, in its unit square's frame: the concentric
  * map of the square onto the unit disk (Shirley-Chiu), halved (area.concentric_disk). */
 INLINE void area_disk_point(const double *u, double *x, double *y)
@@ -76,10 +172,66 @@ INLINE void sample_area(const LightRecord *light, const double *P, double x, dou
     out->pdf = pdf;
 }
 
+/* AreaLight.sample_spread_region: a sample from P's spread region (over its spherical rectangle where it is a near
+ * rectangle, else uniform in its area); none (pdf 0) where it is empty or the point falls outside a round lamp. */
+INLINE void sample_area_spread(const LightRecord *light, const double *P, const double *u, LightSample *out)
+{
+    SpreadRegion g;
+    area_spread_region(light, P, &g);
+    double R[9];
+    double area = spread_region_area(&g, R);
+    double x = u[0] - 0.5, y = u[1] - 0.5, pdf, t;
+    if (g.round) area_disk_point(u, &x, &y);
+    int spherical = !g.round && !g.empty && area_spherical(light, R, P);
+    if (spherical) {
+        spherical_rectangle_sample(P, R, u, out->L, &t, &pdf);
+        for (int c = 0; c < 3; c++) out->position[c] = P[c] + t * out->L[c];
+    } else {
+        for (int c = 0; c < 3; c++) out->position[c] = x * g.U[c] + y * g.V[c] + g.center[c];
+        t = direction_to(P, out->position, out->L);
+    }
+    double cos_light = -dot3(out->L, light->direction);
+    int facing = (cos_light > 0.0) & (t > 0.0) & !g.empty;
+    if (light->ellipse != 0.0) {                                    /* (the region may reach past the lamp) */
+        double offset[3] = {out->position[0] - light->position[0], out->position[1] - light->position[1],
+                            out->position[2] - light->position[2]};
+        double lx = dot3(offset, light->axis_u) / dot3(light->axis_u, light->axis_u);
+        double ly = dot3(offset, light->axis_v) / dot3(light->axis_v, light->axis_v);
+        facing &= lx * lx + ly * ly <= 0.25 * (1.0 + 1e-9);
+    }
+    if (!spherical) pdf = t * t / (cos_light * area);
+    pdf = facing ? pdf : 0.0;
+    double geometry = pdf > 0.0 ? 1.0 / pdf : 0.0;
+    geometry *= facing ? area_spread(light, cos_light) : 0.0;
+    out->distance = t;
+    out->strength = light->radiance * geometry;
+    out->pdf = pdf;
+}
+
+/* AreaLight.spread_region_pdf: the pdf with which sample_area_spread from O picks the lamp point t away along a ray
+ * meeting it at cos(theta_light) cos_light > 0 (1 / Omega of a near rectangle, else t^2 / (cos A_region)). */
+INLINE double area_spread_pdf(const LightRecord *light, const double *O, double cos_light, double t)
+{
+    SpreadRegion g;
+    area_spread_region(light, O, &g);
+    if (g.empty) return 0.0;
+    double R[9];
+    double area = spread_region_area(&g, R);
+    if (!g.round && area_spherical(light, R, O)) {
+        double omega = rectangle_solid_angle(O, R);
+        return omega > 0.0 ? 1.0 / omega : 0.0;
+    }
+    return t * t / (cos_light * area);
+}
+
 /* AreaLight.sample for the unit-square sample u: over the spherical rectangle (pdf 1 / Omega, E_normal L_e / pdf)
- * where AreaLight.spherical, else uniform in area. */
+ * where AreaLight.spherical, else uniform in area; under a narrow spread, from P's spread region. */
 INLINE void sample_area_light(const LightRecord *light, const double *P, const double *u, LightSample *out)
 {
+    if (area_spread_clamps(light)) {
+        sample_area_spread(light, P, u, out);
+        return;
+    }
     double R[9];
     if (area_rectangle(light, R) && area_spherical(light, R, P)) {
         double t, pdf;
@@ -128,6 +280,7 @@ INLINE int area_light_hit(const LightRecord *light, const double *O, const doubl
         double omega = rectangle_solid_angle(O, R);
         out->pdf = omega > 0.0 ? 1.0 / omega : 0.0;
     }
+    if (area_spread_clamps(light)) out->pdf = area_spread_pdf(light, O, cos_light, t);
     return 1;
 }
 
