@@ -5,7 +5,9 @@ closed forms in both kernels: two boxes sharing one absorbing material whose den
 exp(-sigma_t(object) d) each, homogeneous (the graph reads nothing of the point: one constant per object) and
 heterogeneous (a field that also reads the point's height, in each object's own coordinates); a box nested in another of the same material adds its
 own medium to the outer one's; more media than a ray is in at once in the compiled stack (MAX_MEDIA) still render
-compiled, said once."""
+compiled, said once. A ray is in a medium once (Cycles' volume_stack_enter skips an (object, shader) pair the stack
+holds, the first back face takes it off): one object's overlapping or nested shells, the camera inside two shells;
+two overlapping objects of one plain material are two media (media.split_by_object)."""
 from __future__ import annotations
 
 from typing import Optional
@@ -238,7 +240,8 @@ def test_a_ray_in_one_objects_medium_twice_over_is_in_it_once_as_in_cycles_stack
     """One object whose mesh holds two shells, seen from above: Cycles' volume_stack_enter skips an (object, shader)
     already on the stack and volume_stack_exit takes it off at the first back face, so the ray is in the medium
     from the first front face to the first back face, once: two coincident shells z 0.5 .. 1.5 let through
-    exp(-sigma_t 1), not exp(-2 sigma_t) (the ray steps past both faces at once there, too); a shell just inside (z 0.505 .. 1.495) exp(-sigma_t (1.5 - 0.505)); a
+    exp(-sigma_t 1), not exp(-2 sigma_t) (the ray steps past both faces at once there, too); a shell just inside
+    (z 0.505 .. 1.495) exp(-sigma_t (1.5 - 0.505)); a
     second shell raised by 0.5 (z 1 .. 2) exp(-sigma_t (2 - 1)), where counting entries gave 2 and 1.5."""
     image, stats = rendered(absorbing(shells), kernels)
     np.testing.assert_allclose(image, np.broadcast_to(GLOW * np.exp(-depth * (1.0 - COLOR)), image.shape), rtol=1e-5)

@@ -21,7 +21,8 @@ phase function (`Coefficients.__add__`), and g keeps the sigma_s-weighted mean c
 scatters the same way (`Media.along`, media.c medium_scattering).
 
 `Media` is one table per render: a column per material with a volume (per object that holds it where its volume
-graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs: `per_object`), the
+graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs: `per_object`; per object
+where its objects' boxes overlap, and per light group where it emits into several: `split_by_object`), the
 world's medium, and which materials are volume-only boundaries (a Volume and no Surface: rays pass through them,
 as Cycles' SD_HAS_ONLY_VOLUME). A material whose closures have inputs fed by links is a heterogeneous medium
 (field.py Field): its column's constant coefficients are zero and its rays are marched (`Stretch.march`), the
@@ -237,7 +238,9 @@ def medium_of(entries: list) -> Coefficients:
 
 class Media:
     """The render's media: a column per material with a volume (or, where its volume graph reads the object's Object
-    Info, a column per object or per group of objects that read alike: `Media.of`), and the world's medium.
+    Info, a column per object or per group of objects that read alike: `Media.of`; one per object whose box overlaps
+    another's of the material, one per light group of an emitting one: `split_by_object`), and the world's medium.
+    A ray's stack holds each medium once, in the order entered (`start`, `enter`, `leave`).
 
     column:   (m + 1,) int64 each material row's column, -1 where it has no volume or its media are kept per object
     keyed:    (m + 1,) int64 each material row's row of object_column (its media kept per object), -1 where not
