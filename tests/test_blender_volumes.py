@@ -714,3 +714,37 @@ def phase_scene(phase: str):
     sun.rotation_euler = (-0.55, 0.0, 0.0)         # (light travelling towards the camera's side, -y, and down)
     scene.primer.max_bounces = 0
     return scene
+
+
+def test_one_objects_overlapping_shells_are_one_medium_and_two_objects_two_as_in_cycles(primer, tmp_path):
+    """Seen from above over an emitter, an absorbing volume-only material on one object whose mesh is two cubes 0.8
+    tall, the second raised by 0.4 (z 1.1 .. 1.9 and 1.5 .. 2.3), and on two such cubes as two objects. Cycles'
+    volume stack holds (object, shader) pairs: entering the object's medium again changes nothing and its first back
+    face takes it off, so the one object absorbs over 2.3 .. 1.5, exp(-sigma 0.8), and the two objects each over its
+    own cube, exp(-sigma 1.6) (Primer used to count the one object twice where its cubes overlap: exp(-sigma 1.2));
+    Primer and Cycles to float32 rounding."""
+    scene = ortho_scene(16, 8, 4.0)
+    glow = np.array([1.0, 0.8, 0.5])
+    bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
+    bpy.context.object.data.materials.append(emitting_material("Glow", glow))
+    color, density = (0.3, 0.6, 0.9), 1.2
+    fog, _ = volume_material("Fog", "ShaderNodeVolumeAbsorption", Color=color, Density=density)
+    cube = box("Right", (1.0, 0.0, 1.5), (1.0, 1.0, 0.8), fog)
+    box("Raised", (1.0, 0.0, 1.9), (1.0, 1.0, 0.8), fog)
+    corners = [tuple(v.co) for v in cube.data.vertices]
+    faces = [tuple(p.vertices) for p in cube.data.polygons]
+    vertices = ([(-1.0 + x, y, 1.5 + 0.8 * z) for x, y, z in corners]
+                + [(-1.0 + x, y, 1.9 + 0.8 * z) for x, y, z in corners])
+    mesh = bpy.data.meshes.new("Shells")
+    mesh.from_pydata(vertices, [], faces + [tuple(i + len(corners) for i in f) for f in faces])
+    mesh.materials.append(fog)
+    scene.collection.objects.link(bpy.data.objects.new("Shells", mesh))
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
+    assert addon(primer, "engine").last_render.stats.kernels == "compiled"
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16, True)[..., :3]
+    sigma = density * (1.0 - np.array(color))
+    expected = np.broadcast_to(glow, mine.shape).copy()
+    expected[2:6, 2:6] = glow * np.exp(-sigma * 0.8)
+    expected[2:6, 10:14] = glow * np.exp(-sigma * 1.6)
+    np.testing.assert_allclose(cycles, expected, rtol=1e-5)
+    np.testing.assert_allclose(mine, expected, rtol=1e-5)

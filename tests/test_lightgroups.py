@@ -218,31 +218,88 @@ def test_a_medium_emits_into_its_objects_group_and_the_world_medium_into_the_wor
     assert (group(result, "W") > group(result, "F")).all()      # (the ray's other ~1.9 m)
 
 
-@pytest.mark.parametrize("kernels", KERNELS)
-def test_overlapping_media_of_different_groups_say_where_their_emission_goes(kernels):
-    """The glow inside the fog (a ray may be in both media): Primer gives the stretch's emission to the medium it
-    lists last, not the one entered last as Cycles; the render says so (apart, no warning: the test above). The
-    passes still sum to Combined: the glow's light found behind the fog's transparent walls weighed as Combined
-    weighs it (through_transparent, by what the fog lets through up to the wall, not past it)."""
+def test_overlapping_media_of_different_groups_emit_alike_in_both_kernels_with_nothing_to_say():
+    """The glow inside the fog (a ray may be in both media): the stretch's emission goes to the group of the medium
+    entered last (Cycles: the last entry of the volume stack), with nothing to say. The passes sum to Combined (the
+    glow's light found behind the fog's transparent walls weighed as Combined weighs it: through_transparent) and
+    the compiled kernel's groups are the reference's, pixel for pixel."""
     scene = foggy_room()
     scene.instances[-1].matrix = np.eye(4)
     scene.instances[-1].matrix[:3, 3] = (0.0, 1.2, 0.0)          # (the glow's box moved to y = 0, into the fog)
-    result = render.render(scene, settings(kernels, width=12, height=9, samples=2, light_groups=("A", "B", "F")))
-    assert any("different light groups at once" in note for note in result.stats.warnings)
-    np.testing.assert_allclose(sum(group(result, name) for name in "ABF"), result.image[..., :3], rtol=1e-5,
-                               atol=1e-6)
+    s = settings("numpy", width=12, height=9, samples=2, light_groups=("A", "B", "F"))
+    numpy_ = render.render(scene, s)
+    compiled = render.render(scene, dataclasses.replace(s, kernels="compiled"))
+    assert compiled.stats.kernels.startswith("compiled")
+    for result in (numpy_, compiled):
+        assert not any("light group" in note for note in result.stats.warnings), result.stats.warnings
+        np.testing.assert_allclose(sum(group(result, name) for name in "ABF"), result.image[..., :3], rtol=1e-5,
+                                   atol=1e-6)
+    for name in "ABF":
+        np.testing.assert_allclose(group(compiled, name), group(numpy_, name), rtol=1e-4, atol=1e-6, err_msg=name)
 
 
-def test_a_medium_on_objects_of_different_groups_emits_into_the_first_ones_and_says_so():
-    """The glow's material on a second box in no group: Primer's volume stack counts materials, not objects, so both
-    boxes' emission goes to the first box's group F (Cycles: each box's own), and the render says so."""
-    scene = foggy_room()
-    scene.add_mesh(primitives.box((0.5, 0.5, 0.5), center=(0.8, -1.2, 0.5)), materials=np.array([3]), name="Glow2")
-    scene.lightgroups["instances"].append("")
-    result = render.render(scene, settings("numpy", light_groups=("A", "B", "F")))
-    assert any("'Glow' is on objects in different light groups" in note for note in result.stats.warnings)
-    np.testing.assert_allclose(sum(group(result, name) for name in "ABF"), result.image[..., :3], rtol=1e-5,
-                               atol=1e-6)
+def glowing_boxes(boxes, e=np.array([0.4, 0.2, 0.1])) -> Scene:
+    """A black floor seen straight down over x, y in [-1, 1] under volume-only boxes [(name, size (3,), centre (3,),
+    material row, light group)], the materials 1, 2 emitting e and 2 e per metre (nothing else)."""
+    scene = black_floor_seen_from_above(2.0)
+    scene.materials.append(volume_only("Glow", "EMISSION", color=e, strength=1.0))
+    scene.materials.append(volume_only("Brighter", "EMISSION", color=e, strength=2.0))
+    scene.lightgroups = {"lights": [], "instances": [""], "world": ""}
+    for name, size, center, row, light_group in boxes:
+        scene.add_mesh(primitives.box(size, center=center), materials=np.array([row]), name=name)
+        scene.lightgroups["instances"].append(light_group)
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_one_emitting_medium_on_objects_of_two_groups_gives_each_group_its_own_boxs_light_alone(kernels):
+    """One homogeneous emitting material (e per metre, its graph reading no Object Info) on two boxes side by side,
+    1 m tall, in groups F (left) and G (right): F's pass is e on the left and 0 on the right, G's the mirror, each
+    equal to the render of its box alone, as Cycles' volume stack holds (object, shader) pairs and gives each
+    object's stretch to object_lightgroup of its object (Primer used to give both to F and say so). The medium is
+    kept per group only where the groups differ: one column where both boxes are in F, or where it emits nothing."""
+    from core.render import prepare
+    e = np.array([0.4, 0.2, 0.1])
+    left = ("Left", (2.0, 4.0, 1.0), (-1.0, 0.0, 1.0), 1, "F")
+    right = ("Right", (2.0, 4.0, 1.0), (1.0, 0.0, 1.0), 1, "G")
+    s = RenderSettings(width=4, height=2, samples=1, integrator="path", kernels=kernels, light_groups=("F", "G"))
+    result = render.render(glowing_boxes([left, right], e), s)
+    assert result.stats.kernels.startswith(kernels)
+    assert not any("light group" in note for note in result.stats.warnings), result.stats.warnings
+    west, east = np.s_[:, :2], np.s_[:, 2:]
+    np.testing.assert_allclose(group(result, "F")[west], np.broadcast_to(e, (2, 2, 3)), rtol=1e-6)
+    np.testing.assert_allclose(group(result, "G")[east], np.broadcast_to(e, (2, 2, 3)), rtol=1e-6)
+    assert group(result, "F")[east].max() == 0.0 and group(result, "G")[west].max() == 0.0
+    for name, alone in (("F", left), ("G", right)):
+        np.testing.assert_allclose(group(result, name), group(render.render(glowing_boxes([alone], e), s), name),
+                                   rtol=1e-12, atol=0.0, err_msg=name)
+    np.testing.assert_allclose(group(result, "F") + group(result, "G"), result.image[..., :3], rtol=1e-6)
+    columns = lambda scene: int((prepare(scene, s).extra["media"].rows == 1).sum())   # noqa: E731 (Glow's)
+    assert columns(glowing_boxes([left, right], e)) == 2
+    assert columns(glowing_boxes([left, right[:4] + ("F",)], e)) == 1                 # (one group: one medium)
+    assert columns(glowing_boxes([left, right], 0.0 * e)) == 1                        # (nothing emitted)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_overlapping_media_emit_into_the_group_of_the_one_the_ray_entered_last(kernels):
+    """Seen straight down: an outer box F (z 0 .. 2, emitting e per metre, material 1) and inside it an inner box G
+    (z 0.5 .. 1.5, 2 e, material 2), both media holding nothing else. Cycles gives a stretch's emission to the group
+    of its volume stack's last entry, the medium entered last: F gets e x 0.5 above G and e x 0.5 below it (G left,
+    F is last again), G the overlap's (e + 2 e) x 1; together Combined's e x 2 + 2 e x 1. With the outer box of the
+    later material (the order Primer listed media in) the groups are the same."""
+    e = np.array([0.4, 0.2, 0.1])
+    s = RenderSettings(width=4, height=2, samples=1, integrator="path", kernels=kernels, light_groups=("F", "G"))
+    for outer, inner in ((1, 2), (2, 1)):
+        scene = glowing_boxes([("Outer", (4.0, 4.0, 2.0), (0.0, 0.0, 1.0), outer, "F"),
+                               ("Inner", (4.0, 4.0, 1.0), (0.0, 0.0, 1.0), inner, "G")], e)
+        result = render.render(scene, s)
+        assert result.stats.kernels.startswith(kernels)
+        assert not any("light group" in note for note in result.stats.warnings), result.stats.warnings
+        e_outer, e_inner = e * outer, e * inner
+        np.testing.assert_allclose(group(result, "F"), np.broadcast_to(e_outer, (2, 4, 3)), rtol=1e-5)
+        np.testing.assert_allclose(group(result, "G"), np.broadcast_to(e_outer + e_inner, (2, 4, 3)), rtol=1e-5)
+        np.testing.assert_allclose(result.image[..., :3], np.broadcast_to(2.0 * e_outer + e_inner, (2, 4, 3)),
+                                   rtol=1e-5)
 
 
 @pytest.mark.parametrize("kernels", KERNELS)

@@ -5,8 +5,12 @@ closed forms in both kernels: two boxes sharing one absorbing material whose den
 exp(-sigma_t(object) d) each, homogeneous (the graph reads nothing of the point: one constant per object) and
 heterogeneous (a field that also reads the point's height, in each object's own coordinates); a box nested in another of the same material adds its
 own medium to the outer one's; more media than a ray is in at once in the compiled stack (MAX_MEDIA) still render
-compiled, said once."""
+compiled, said once. A ray is in a medium once (Cycles' volume_stack_enter skips an (object, shader) pair the stack
+holds, the first back face takes it off): one object's overlapping or nested shells, the camera inside two shells;
+two overlapping objects of one plain material are two media (media.split_by_object)."""
 from __future__ import annotations
+
+from typing import Optional
 
 import numpy as np
 import pytest
@@ -17,7 +21,7 @@ from core.materials import Material
 from core.materials.graph import GraphNode, Link
 from core.render import prepare, render
 from core.scene import RenderSettings, Scene
-from core.scene.scene import Instance
+from core.scene.scene import Instance, Mesh
 from core.volumes import MAX_MEDIA
 
 COLOR = np.array([0.2, 0.5, 0.8])
@@ -209,3 +213,70 @@ def test_a_field_kept_per_object_reads_each_objects_own_object_coordinates(kerne
     image, _ = rendered(scene, kernels)
     expected = halves(GLOW * np.exp(-1.6 * 0.25 * 1.5 * (1.0 - COLOR)), GLOW * np.exp(-1.6 * 0.75 * 1.5 * (1.0 - COLOR)))
     np.testing.assert_allclose(image, expected, rtol=1e-5)
+
+
+def absorbing(scene_boxes, camera: Optional[Camera] = None) -> Scene:
+    """A glowing floor (GLOW) at z = 0 seen by `camera` (None: camera_above) through one object holding the shared
+    absorbing material of density 1 (sigma_t = 1 - COLOR), its mesh the shells `scene_boxes` [(size (3,), centre
+    (3,))] together."""
+    scene = Scene(camera=camera or camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=GLOW))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(shared(1.0))
+    shells = [primitives.box(size, center=center) for size, center in scene_boxes]
+    mesh = Mesh(np.concatenate([m.vertices for m in shells]),
+                np.concatenate([m.triangles + 8 * k for k, m in enumerate(shells)]), name="Shells")
+    scene.add_mesh(mesh, materials=np.array([1]), name="Shells")
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("shells, depth", [
+    ([((4.0, 4.0, 1.0), (0.0, 0.0, 1.0))] * 2, 1.0),                                    # (two coincident shells)
+    ([((4.0, 4.0, 1.0), (0.0, 0.0, 1.0)), ((3.9, 3.9, 0.99), (0.0, 0.0, 1.0))], 0.995),  # (one just inside)
+    ([((4.0, 4.0, 1.0), (0.0, 0.0, 1.0)), ((4.0, 4.0, 1.0), (0.0, 0.0, 1.5))], 1.0),    # (overlapping halfway)
+])
+def test_a_ray_in_one_objects_medium_twice_over_is_in_it_once_as_in_cycles_stack(shells, depth, kernels):
+    """One object whose mesh holds two shells, seen from above: Cycles' volume_stack_enter skips an (object, shader)
+    already on the stack and volume_stack_exit takes it off at the first back face, so the ray is in the medium
+    from the first front face to the first back face, once: two coincident shells z 0.5 .. 1.5 let through
+    exp(-sigma_t 1), not exp(-2 sigma_t) (the ray steps past both faces at once there, too); a shell just inside
+    (z 0.505 .. 1.495) exp(-sigma_t (1.5 - 0.505)); a
+    second shell raised by 0.5 (z 1 .. 2) exp(-sigma_t (2 - 1)), where counting entries gave 2 and 1.5."""
+    image, stats = rendered(absorbing(shells), kernels)
+    np.testing.assert_allclose(image, np.broadcast_to(GLOW * np.exp(-depth * (1.0 - COLOR)), image.shape), rtol=1e-5)
+    assert not any("volume" in w for w in stats.warnings), stats.warnings
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_camera_inside_two_shells_of_one_object_starts_in_their_medium_once(kernels):
+    """The camera at z = 3 inside an object of two shells, z 0.5 .. 3.5 and just inside it 0.505 .. 3.495 (the walk
+    for the media a camera ray starts in meets a back face of each; Cycles' integrator_volume_stack_init adds an
+    object once): the ray is in the medium until the inner shell's back face takes it off the stack, the floor seen
+    through exp(-sigma_t (2.99 - 0.505)) (an orthographic ray starts at Clip Start, 0.01 below the camera), where
+    counting entries gave 2 x 2.485 + 0.005."""
+    matrix = np.eye(4)
+    matrix[2, 3] = 3.0
+    camera = Camera(matrix_world=matrix, type="ORTHO", ortho_scale=2.0, clip_start=0.01, clip_end=20.0)
+    scene = absorbing([((4.0, 4.0, 3.0), (0.0, 0.0, 2.0)), ((3.9, 3.9, 2.99), (0.0, 0.0, 2.0))], camera)
+    image, _ = rendered(scene, kernels)
+    np.testing.assert_allclose(image, np.broadcast_to(GLOW * np.exp(-2.485 * (1.0 - COLOR)), image.shape), rtol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("marched", [False, True])
+def test_two_overlapping_objects_of_one_plain_material_are_two_media(marched, kernels):
+    """Two objects holding the shared absorbing material (density 1, no Object Info read; marched: the 1 a graph's,
+    Math 1 x 1, a heterogeneous medium), the second raised by 0.5 (z 0.5 .. 1.5 and 1 .. 2): Cycles' stack holds
+    (object, shader) pairs, so where they overlap the ray is in both, exp(-sigma_t (0.5 + 2 x 0.5 + 0.5)); Primer
+    keeps such a medium per object (its objects' boxes overlap), and one medium where they are apart."""
+    scene = absorbing([((4.0, 4.0, 1.0), (0.0, 0.0, 1.0))])
+    if marched:
+        scene.materials[1] = shared(times(1.0, 1.0))
+    scene.add_mesh(primitives.box((4.0, 4.0, 1.0), center=(0.0, 0.0, 1.5)), materials=np.array([1]), name="Raised")
+    image, _ = rendered(scene, kernels)
+    np.testing.assert_allclose(image, np.broadcast_to(GLOW * np.exp(-2.0 * (1.0 - COLOR)), image.shape), rtol=1e-5)
+    media = prepare(scene, RenderSettings(width=4, height=4)).extra["media"]
+    assert len(media.g) == 2 and len(media.fields) == (2 if marched else 0)
+    apart = two_boxes(1.0)
+    assert len(prepare(apart, RenderSettings(width=4, height=4)).extra["media"].g) == 1

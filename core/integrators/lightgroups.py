@@ -14,10 +14,12 @@ object or the world it ends at):
 - what a medium scatters goes to the group of the light it scatters, as at a surface (the light samples and the
   phase ray's finds at each scattering point: core/integrators/volume.py, volume.c);
 - what media emit along a ray goes to one group, as Cycles' film_write_volume_emission gives the stretch's whole
-  emission to object_lightgroup of the shader data's object, the last entry of the ray's volume stack: the group of
-  the object whose medium the ray is in (`emission_groups`; in several at once, the column listed last: Primer's
-  stack keeps counts, not the order Cycles entered them in), else the world's (the world's medium's entry is the
-  world's light object, whose group is the world's).
+  emission (every entry's shader evaluated, their closures summed) to object_lightgroup of the shader data's object,
+  which volume_shader_eval leaves at the last entry of the ray's volume stack: the group of the object whose medium
+  the ray entered last of those it is in (`emission_groups`; Primer's stacks keep the order the media were entered
+  in, Media.enter), else the world's (the world's medium's entry, the stack's first, is the world's light object,
+  whose group is the world's). A medium on objects of different groups is kept per object where it emits
+  (core/volumes/media.py split_by_object), as Cycles' stack holds (object, shader) pairs.
 
 Each is the same value the Combined pass receives (MIS weights, clamping and the path's throughput included),
 so the groups' passes add up to Combined wherever every source is in some group. Both kernels write them: the
@@ -98,59 +100,36 @@ class LightGroups:
             return self.of_prims(geometry, light.prim[np.asarray(ls.emitter, np.int64)])
         return int(self.lights[index])
 
-    def of_media(self, geometry, media) -> tuple:
-        """(the group (V,) int64 of each column of `media` (core/volumes Media): the group of the objects whose
-        triangles carry its medium, NONE where none does; the columns (c,) int64 whose objects are in different
-        groups, which take the first such object's group; each column's box (low (V, 3), high (V, 3) float64, inf
-        and -inf where no triangle carries it: a medium kept per object has its own objects' box)), in one pass
-        over the triangles."""
+    def of_media(self, geometry, media) -> np.ndarray:
+        """The group (V,) int64 of each column of `media` (core/volumes Media): the group of the objects whose
+        triangles carry its medium (an emitting medium on objects of different groups has a column per group:
+        Media.of's object_groups; where one does not emit, the first object's group, which nothing reads), NONE
+        where none does, in one pass over the triangles."""
         from ..volumes.media import triangle_chunks
         V = len(media.g)
         first = np.full(V, np.iinfo(np.int64).max)                # the first object (instance index) of each
-        groups = [set() for _ in range(V)]
-        low, high = np.full((V, 3), np.inf), np.full((V, 3), -np.inf)
-        owner_groups = np.append(self.instances, NONE)
         for prims, triangles in triangle_chunks(geometry):
             column = media.column_of(triangles.material, media.objects_of(geometry, prims))   # (per object: its own)
             rows = np.flatnonzero(column >= 0)
             if len(rows) == 0:
                 continue
             owners = geometry.owners(prims[rows])
-            for v in np.unique(column[rows]):
-                carried = column[rows] == v
-                mine = owners[carried]
-                groups[v].update(int(g) for g in np.unique(owner_groups[mine]))
-                first[v] = min(first[v], int(np.where(mine >= 0, mine, np.iinfo(np.int64).max).min()))
-                corners = triangles.corners[rows[carried]].reshape(-1, 3)
-                low[v], high[v] = np.minimum(low[v], corners.min(axis=0)), np.maximum(high[v], corners.max(axis=0))
+            owners = np.where(owners >= 0, owners, np.iinfo(np.int64).max)
+            np.minimum.at(first, column[rows], owners)
         out = np.full(V, NONE, np.int64)
-        for v in range(V):
-            if first[v] < len(self.instances):
-                out[v] = self.instances[first[v]]
-            elif groups[v]:
-                out[v] = min(groups[v])
-        mixed = np.array([v for v in range(V) if len(groups[v]) > 1], np.int64)
-        return out, mixed, (low, high)
-
-    def overlapping(self, boxes: tuple) -> bool:
-        """Whether the boxes (low (V, 3), high (V, 3): of_media's) of two media in different groups (`media`,
-        of_media) overlap: where a ray may be in both at once, and its emission's group is the one listed last's."""
-        if self.media is None or len(set(self.media.tolist())) < 2:
-            return False
-        low, high = boxes
-        carried = [v for v in range(len(low)) if np.isfinite(low[v]).all()]
-        return any(a < b and self.media[a] != self.media[b] and np.all(low[a] < high[b]) and np.all(low[b] < high[a])
-                   for a in carried for b in carried)
+        known = first < len(self.instances)
+        out[known] = self.instances[first[known]]
+        return out
 
     def emission_groups(self, inside: np.ndarray) -> np.ndarray:
         """The group (k,) int64 that the media's emission along rays with stacks `inside` (k, V) goes to: that of
-        the last column the ray is in (Cycles: the object of the last entry of its volume stack), else the world's."""
+        the medium the ray entered last of those it is in (the highest place: Media.start; Cycles: the object of the
+        last entry of its volume stack), else the world's."""
         inside = np.asarray(inside)
         out = np.full(len(inside), self.world, np.int64)
         if inside.ndim == 2 and inside.shape[1] and self.media is not None and len(self.media):
-            present = inside > 0
-            last = inside.shape[1] - 1 - np.argmax(present[:, ::-1], axis=1)
-            out = np.where(present.any(axis=1), self.media[last], out)
+            last = np.argmax(inside, axis=1)
+            out = np.where(inside.max(axis=1) > 0, self.media[last], out)
         return out
 
     def emitter_groups(self, geometry, emitters) -> np.ndarray:

@@ -267,7 +267,8 @@ def media_bounds(geometry, media) -> tuple:
 
 
 def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """camera_media's walk for rays O, D (n, 3): the stacks (n, V) int16 they start in."""
+    """camera_media's walk for rays O, D (n, 3): the stacks (n, V) int16 they start in (Media.start: each medium
+    once, in the order the walk meets their back faces, as Cycles' integrator_volume_stack_init adds them)."""
     inside = media.start(len(O))
     if inside.shape[1] == 0:
         return inside                               # (the world's medium alone: no mesh to be inside)
@@ -289,7 +290,7 @@ def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
         left = back & (entered[rows, np.maximum(column, 0)] > 0)
         np.add.at(entered, (rows[left], column[left]), -1)
         started = back & ~left
-        np.add.at(inside, (rows[started], column[started]), 1)
+        media.enter(inside, rows[started], column[started])     # (each once, nearest first: Cycles')
         O[rows] = shadows.spawn_ray(surface.I, surface.Ng, D[rows], shadows.error_bound(surface.I, surface.vertices))
         alive = rows
     return inside

@@ -215,28 +215,15 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # transparent surfaces)
     # The media (core/volumes): inside closed meshes whose material has a Volume, and the world's; their rays go on
     # through the boundaries, and every stretch of a ray in a medium loses what Beer-Lambert says.
-    media = volumes.Media.of(list(scene.materials) + [scene.default_material or Material()], world.volume, geometry)
+    groups = ctx.extra["light_groups"]
+    media = volumes.Media.of(list(scene.materials) + [scene.default_material or Material()], world.volume, geometry,
+                             None if groups is None else groups.instances)
     ctx.extra["media"] = media
     warnings.extend(note for note in (media.notes if media is not None else ()) if note not in warnings)
     if media is not None:                  # (where camera rays may start inside a mesh's medium)
         ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
-    groups = ctx.extra["light_groups"]
     if media is not None and groups is not None:      # (the group each medium's emission goes to: lightgroups.py)
-        groups.media, mixed, boxes = groups.of_media(geometry, media)
-        if len(mixed) and media.emits:
-            names = ", ".join(repr(getattr(list(scene.materials)[int(row)], "name", row)) if row < len(scene.materials)
-                              else "'default'" for row in np.unique(media.rows[mixed]))
-            note = (f"volumes: the medium of {names} is on objects in different light groups; its emission goes to "
-                    "the group of the first of them (Cycles: of the object the ray entered)")
-            if note not in warnings:
-                warnings.append(note)
-        if media.emits and groups.overlapping(boxes):
-            # (LightGroups.emission_groups: the stack's last column, where Cycles takes the one entered last)
-            note = ("volumes: where a ray is inside the media of objects in different light groups at once, their "
-                    "emission goes to the group of the medium Primer lists last (Cycles: of the one the ray entered "
-                    "last)")
-            if note not in warnings:
-                warnings.append(note)
+        groups.media = groups.of_media(geometry, media)
     see_through = any(shader.may_let_light_through for shader in materials.shaders)
     ctx.extra["transparent"] = (see_through
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
@@ -598,7 +585,8 @@ def volume_reason(ctx: Context, warnings: list) -> str:
         kept = int((media.keyed >= 0).sum())
         note = (f"volumes: {len(media.g)} media"
                 + (f" ({len(media.g) - int((media.column >= 0).sum())} of them kept per object for {kept} "
-                   f"material{'s' if kept > 1 else ''} whose volume reads Object Info)" if kept else "")
+                   f"material{'s' if kept > 1 else ''}: a volume that reads Object Info, on objects that overlap, or "
+                   "emitting into several light groups)" if kept else "")
                 + f"; a ray is in at most {int(volumes.MAX_MEDIA)} at once in the compiled kernel's volume stack and "
                   "leaves a further one out (Cycles: 30)")
         if note not in warnings:

@@ -11,8 +11,9 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
 
 - `media.py`: the volume closures as classes with their flags (Volume Absorption, Volume Scatter, Principled
   Volume, Volume Coefficients, an Emission node at a Volume output), read into one `Media` table per render: each volume material's coefficients, and the world's.
-  `Media.crossed` keeps which media a ray is in (a count per medium: per volume material, or per object where the
-  material's volume graph reads Object Info, `Media.column_of`), `transmittance` what it lets through.
+  `Media.crossed` keeps which media a ray is in, each once and in the order entered (per volume material, or per
+  object where the material's volume graph reads Object Info, its objects overlap or it emits into several light
+  groups: `Media.column_of`, `split_by_object`), `transmittance` what it lets through.
   `Media.tables` packs them for the compiled kernel's twin, `media.c` (the volume stack, Beer-Lambert, emission).
 - `phase.py`: phase functions, the volume's BSDF: the Phase menu's Henyey-Greenstein, Fournier-Forand, Draine,
   Rayleigh and Mie, each with eval, sample, pdf and its mean cosine; a medium carries one as a kind and four numbers.

@@ -1,19 +1,22 @@
 /* Homogeneous media: core/volumes/media.py's Media table, a ray's volume stack, Beer-Lambert and media emission.
  *
- * A ray's volume stack holds the media it is in and how many times (Media.crossed keeps a count per medium, int16):
- * per volume material, or per object where its graph reads the object's Object Info (Media.column_of, medium_column;
- * Cycles' stack holds (object, shader) pairs): one more where it went through a front face of its mesh, one less
- * through a back face. What a stretch of the ray crosses is the world's medium plus each stacked medium as many times
- * as the ray is in it. The stack is sparse, as Cycles' is: a render may have any number of media (columns), a ray
- * be in MAX_MEDIA of them at once; a further one it enters is left out, as Cycles leaves out what its stack has no
- * room for (volume_stack_enter_exit; its stack holds 30 objects' media, MAX_VOLUME_STACK_SIZE less the world's and
- * the end). The Python reference's stacks have room for all. */
+ * A ray's volume stack holds the media it is in, each once, and the order it entered them in (Media.start keeps each
+ * medium's place per column, int16): per volume material, or per object where Media.of keeps it per object (its
+ * graph reads the object's Object Info, its objects' boxes overlap, or it emits into different light groups:
+ * Media.column_of, medium_column; Cycles' stack holds (object, shader) pairs): put last where the ray went through a
+ * front face of its mesh, unless already there; taken off through a back face (Cycles' volume_stack_enter_exit).
+ * What a stretch of the ray crosses is the world's medium plus each stacked medium. The stack is sparse, as Cycles'
+ * is: a render may have any number of media (columns), a ray be in MAX_MEDIA of them at once; a further one it
+ * enters is left out, as Cycles leaves out what its stack has no room for (its stack holds 30 objects' media,
+ * MAX_VOLUME_STACK_SIZE less the world's and the end). The Python reference's stacks have room for all. */
 
-/* A ray's volume stack (Media.crossed's row, its nonzero counts): `size` media, their columns of the MediaTables
- * in increasing order (the order the dense row sums them in) and how many times the ray is in each. */
+/* A ray's volume stack (Media.start's row, its nonzero places): `size` media, their columns of the MediaTables in
+ * increasing order (the order the dense row sums them in) and each one's place in the order the ray entered them
+ * (1 .. the first; higher: entered later). camera_media's tally of the front faces met uses the same record with
+ * counts in place of places (tally_add). */
 typedef struct {
     int32_t column[MAX_MEDIA];
-    int16_t count[MAX_MEDIA];
+    int16_t place[MAX_MEDIA];
     int32_t size;
 } VolumeStack;
 
@@ -23,59 +26,105 @@ INLINE void stack_empty(VolumeStack *stack)
     stack->size = 0;
 }
 
-/* How many times a ray with stack `stack` is in the medium of column v (0: not in it). */
+/* How many times a ray with stack `stack` is in the medium of column v: 1, else 0 (each medium once: stack_add). */
 INLINE int stack_count(const VolumeStack *stack, int32_t v)
 {
     for (int i = 0; i < stack->size; i++)
-        if (stack->column[i] == v) return stack->count[i];
+        if (stack->column[i] == v) return 1;
     return 0;
 }
 
-/* Column v's count changed by `step` (+1 or -1), never below 0: a medium left out of the stack at 0, one entered
- * kept in column order; one more where the stack is full is left out (Cycles: "exceed the stack limit, ignore"). */
+/* tally_add's count of column v (0: none). */
+INLINE int tally_of(const VolumeStack *tally, int32_t v)
+{
+    for (int i = 0; i < tally->size; i++)
+        if (tally->column[i] == v) return tally->place[i];
+    return 0;
+}
+
+/* Media.enter (step +1) and Media.leave (step -1) for one stack and column v: entered, it is put last in the order
+ * unless already there; left, it is taken off and the media entered after it move one place down; leaving a medium
+ * the ray is not in changes nothing, and one more where the stack is full is left out (Cycles: "exceed the stack
+ * limit, ignore"). */
 INLINE void stack_add(VolumeStack *stack, int32_t v, int step)
 {
     int i = 0;
     while (i < stack->size && stack->column[i] < v) i++;
-    if (i < stack->size && stack->column[i] == v) {
-        int next = (int)stack->count[i] + step;
-        if (next > 0) {
-            stack->count[i] = (int16_t)next;
-            return;
+    int here = i < stack->size && stack->column[i] == v;
+    if (step > 0) {
+        if (here || stack->size >= MAX_MEDIA) return;
+        int16_t last = 0;
+        for (int j = 0; j < stack->size; j++)
+            if (stack->place[j] > last) last = stack->place[j];
+        for (int j = stack->size; j > i; j--) {
+            stack->column[j] = stack->column[j - 1];
+            stack->place[j] = stack->place[j - 1];
         }
-        for (int j = i; j + 1 < stack->size; j++) {
-            stack->column[j] = stack->column[j + 1];
-            stack->count[j] = stack->count[j + 1];
-        }
-        stack->size--;
+        stack->column[i] = v;
+        stack->place[i] = (int16_t)(last + 1);
+        stack->size++;
         return;
     }
-    if (step <= 0 || stack->size >= MAX_MEDIA) return;
-    for (int j = stack->size; j > i; j--) {
-        stack->column[j] = stack->column[j - 1];
-        stack->count[j] = stack->count[j - 1];
+    if (!here) return;
+    int16_t gone = stack->place[i];
+    for (int j = i; j + 1 < stack->size; j++) {
+        stack->column[j] = stack->column[j + 1];
+        stack->place[j] = stack->place[j + 1];
     }
-    stack->column[i] = v;
-    stack->count[i] = (int16_t)step;
-    stack->size++;
+    stack->size--;
+    for (int j = 0; j < stack->size; j++)
+        if (stack->place[j] > gone) stack->place[j]--;
+}
+
+/* camera_media's tally of front faces met and not yet left: column v's count changed by `step` (+1 or -1), never
+ * below 0 (a column at 0 taken out); one more where the record is full is left out. */
+INLINE void tally_add(VolumeStack *tally, int32_t v, int step)
+{
+    int i = 0;
+    while (i < tally->size && tally->column[i] < v) i++;
+    if (i < tally->size && tally->column[i] == v) {
+        int next = (int)tally->place[i] + step;
+        if (next > 0) {
+            tally->place[i] = (int16_t)next;
+            return;
+        }
+        for (int j = i; j + 1 < tally->size; j++) {
+            tally->column[j] = tally->column[j + 1];
+            tally->place[j] = tally->place[j + 1];
+        }
+        tally->size--;
+        return;
+    }
+    if (step <= 0 || tally->size >= MAX_MEDIA) return;
+    for (int j = tally->size; j > i; j--) {
+        tally->column[j] = tally->column[j - 1];
+        tally->place[j] = tally->place[j - 1];
+    }
+    tally->column[i] = v;
+    tally->place[i] = (int16_t)step;
+    tally->size++;
 }
 
 /* lightgroups.LightGroups.emission_groups for one stack: the light group of the media's emission along a ray in it,
- * that of the last column the ray is in (Cycles: the object of its volume stack's last entry), else world_group. */
+ * that of the medium it entered last (the highest place; Cycles: the object of its volume stack's last entry), else
+ * world_group. */
 INLINE int64_t emission_group(const MediaTables *media, const VolumeStack *stack, int64_t world_group)
 {
     if (media->groups == NULL || stack == NULL || stack->size == 0) return world_group;
-    return (int64_t)media->groups[stack->column[stack->size - 1]];     /* (the stack keeps its columns in order) */
+    int last = 0;
+    for (int i = 1; i < stack->size; i++)
+        if (stack->place[i] > stack->place[last]) last = i;
+    return (int64_t)media->groups[stack->column[last]];
 }
 
 /* Media.along for one stack: the extinction sigma_t (3) and emission (3) of what the ray crosses, the world's plus
- * each medium's as many times as it is in it (the counts' weighted sum first, then the world's, as Python adds). */
+ * each medium's it is in (the media's sum first, then the world's, as Python adds). */
 INLINE void medium_along(const MediaTables *media, const VolumeStack *stack, double *sigma_t, double *emission)
 {
     double sigma[3] = {0.0, 0.0, 0.0}, e[3] = {0.0, 0.0, 0.0};
     for (int i = 0; i < stack->size; i++) {
         int64_t v = stack->column[i];
-        double n = (double)stack->count[i];
+        double n = 1.0;                         /* (each medium once: stack_add) */
         for (int c = 0; c < 3; c++) {
             sigma[c] += n * media->sigma_t[3 * v + c];
             e[c] += n * media->emission[3 * v + c];
@@ -100,7 +149,7 @@ INLINE void medium_scattering(const MediaTables *media, const VolumeStack *stack
     int other = world_share > 0.0 && media->world_phase != PHASE_HENYEY_GREENSTEIN;
     for (int i = 0; i < stack->size; i++) {
         int64_t v = stack->column[i];
-        double n = (double)stack->count[i];
+        double n = 1.0;                         /* (each medium once: stack_add) */
         const double *s = media->sigma_s + 3 * v;
         for (int c = 0; c < 3; c++) sum[c] += n * s[c];
         double share = n * ((s[0] + s[1]) + s[2]);
@@ -170,7 +219,7 @@ INLINE VolumeStack shadow_stack(const MediaTables *media, const VolumeStack *sta
     for (int i = 0; i < stack->size; i++) {
         if (media->shadowless[stack->column[i]]) continue;
         shadow.column[shadow.size] = stack->column[i];
-        shadow.count[shadow.size++] = stack->count[i];
+        shadow.place[shadow.size++] = stack->place[i];
     }
     return shadow;
 }
@@ -212,9 +261,9 @@ static void camera_media(const MediaTables *media, const GeometryTables *geometr
         /* b. A front face entered; a back face left if entered on the way, else a medium the ray started in. */
         int32_t v = medium_column(media, s.material, s.object);
         if (v >= 0) {
-            if (!s.backfacing) stack_add(&entered, v, 1);
-            else if (stack_count(&entered, v) > 0) stack_add(&entered, v, -1);
-            else stack_add(stack, v, 1);
+            if (!s.backfacing) tally_add(&entered, v, 1);
+            else if (tally_of(&entered, v) > 0) tally_add(&entered, v, -1);
+            else stack_add(stack, v, 1);                /* (each once, nearest first: Cycles' stack init) */
         }
         /* c. On from just past it (shadows.spawn_ray: off the surface along Ng, on the side D goes to). */
         double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;

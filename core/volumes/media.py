@@ -21,7 +21,8 @@ phase function (`Coefficients.__add__`), and g keeps the sigma_s-weighted mean c
 scatters the same way (`Media.along`, media.c medium_scattering).
 
 `Media` is one table per render: a column per material with a volume (per object that holds it where its volume
-graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs: `per_object`), the
+graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs: `per_object`; per object
+where its objects' boxes overlap, and per light group where it emits into several: `split_by_object`), the
 world's medium, and which materials are volume-only boundaries (a Volume and no Surface: rays pass through them,
 as Cycles' SD_HAS_ONLY_VOLUME). A material whose closures have inputs fed by links is a heterogeneous medium
 (field.py Field): its column's constant coefficients are zero and its rays are marched (`Stretch.march`), the
@@ -30,6 +31,7 @@ march the proposal whose estimates ratio tracking and control variates make unbi
 """
 from __future__ import annotations
 
+import copy
 import enum
 from typing import ClassVar, NamedTuple, Optional
 
@@ -236,7 +238,9 @@ def medium_of(entries: list) -> Coefficients:
 
 class Media:
     """The render's media: a column per material with a volume (or, where its volume graph reads the object's Object
-    Info, a column per object or per group of objects that read alike: `Media.of`), and the world's medium.
+    Info, a column per object or per group of objects that read alike: `Media.of`; one per object whose box overlaps
+    another's of the material, one per light group of an emitting one: `split_by_object`), and the world's medium.
+    A ray's stack holds each medium once, in the order entered (`start`, `enter`, `leave`).
 
     column:   (m + 1,) int64 each material row's column, -1 where it has no volume or its media are kept per object
     keyed:    (m + 1,) int64 each material row's row of object_column (its media kept per object), -1 where not
@@ -295,11 +299,14 @@ class Media:
         self.notes = []
 
     @classmethod
-    def of(cls, materials: list, world_volume: Optional[list] = None, geometry=None) -> Optional["Media"]:
+    def of(cls, materials: list, world_volume: Optional[list] = None, geometry=None,
+           object_groups: Optional[np.ndarray] = None) -> Optional["Media"]:
         """The media of a scene's material records (each with `volume`, a list of closures, `volume_only`, and for a
         heterogeneous medium `volume_space`), the default material last, and the world's Volume
         closures; None when no medium is anywhere. geometry: the render's (its origin, each heterogeneous
-        medium's box of triangles, and the objects whose Object Info a volume graph reads: `per_object`), or None."""
+        medium's box of triangles, and the objects whose Object Info a volume graph reads: `per_object`), or None.
+        object_groups: (n,) int64 each Scene.instances entry's light group (lightgroups.LightGroups.instances), or
+        None: an emitting medium on objects of different groups is kept per group (`split_by_object`)."""
         from . import field as field_
         fields, keyed = {}, {}
         for row, m in enumerate(materials):
@@ -312,6 +319,8 @@ class Media:
                                            None if geometry is None else material_bounds(geometry, row))
         media = [(NOTHING if row in fields or row in keyed else medium_of(m.volume))
                  if getattr(m, "volume", None) else None for row, m in enumerate(materials)]
+        if geometry is not None:            # (media a ray may be in twice over, or that emit into several groups)
+            split_by_object(media, fields, keyed, geometry, object_groups)
         world_field = world_field_of(world_volume, geometry) if world_volume and field_.linked(world_volume) else None
         world = medium_of(world_volume) if world_volume and world_field is None else None
         boundary = [bool(getattr(m, "volume_only", False)) for m in materials]
@@ -414,13 +423,38 @@ class Media:
                     field_step=min(f.step for f in self.fields))
 
     def start(self, n: int) -> np.ndarray:
-        """The stacks (n, V) int16 of rays that start in no mesh's medium (the world's is always there)."""
+        """The stacks (n, V) int16 of rays that start in no mesh's medium (the world's is always there). A stack
+        holds, per column, the medium's place in the order the ray entered the media it is in (1: the first of
+        them, 0: not in it), as Cycles' volume stack lists its (object, shader) entries: each medium once."""
         return np.zeros((n, len(self.g)), np.int16)
 
+    @staticmethod
+    def enter(inside: np.ndarray, rows: np.ndarray, column: np.ndarray) -> None:
+        """Rays `rows` (k,) int64 (each once) of stacks `inside` (n, V) enter the media `column` (k,) int64, in
+        place: each put last in its stack's order, unless already there (Cycles' volume_stack_enter_exit: an entry
+        already on the stack is not added again)."""
+        rows, column = np.asarray(rows, np.int64), np.asarray(column, np.int64)
+        new = inside[rows, column] == 0
+        rows, column = rows[new], column[new]
+        if len(rows):
+            inside[rows, column] = inside[rows].max(axis=1) + 1
+
+    @staticmethod
+    def leave(inside: np.ndarray, rows: np.ndarray, column: np.ndarray) -> None:
+        """Rays `rows` (k,) int64 (each once) of stacks `inside` (n, V) leave the media `column` (k,) int64, in
+        place: taken off their stacks, the media entered after them one place down; a medium the ray is not in is
+        left alone (Cycles' volume_stack_enter_exit)."""
+        rows, column = np.asarray(rows, np.int64), np.asarray(column, np.int64)
+        place = inside[rows, column]
+        rows, column, place = rows[place > 0], column[place > 0], place[place > 0]
+        if len(rows):
+            inside[rows] -= (inside[rows] > place[:, None]).astype(inside.dtype)
+            inside[rows, column] = 0
+
     def extinction(self, inside: np.ndarray) -> np.ndarray:
-        """sigma_t (n, 3) float64 of rays with stacks inside (n, V): the world's plus each medium's as many times
-        as the ray is in it (overlapping media add, as in Cycles' volume stack)."""
-        return self.world.sigma_t + inside.astype(np.float64) @ self.sigma_t
+        """sigma_t (n, 3) float64 of rays with stacks inside (n, V): the world's plus each medium's the ray is in
+        (overlapping media add, as in Cycles' volume stack)."""
+        return self.world.sigma_t + (inside > 0).astype(np.float64) @ self.sigma_t
 
     def along(self, inside: np.ndarray, O: Optional[np.ndarray] = None, D: Optional[np.ndarray] = None) -> "Stretch":
         """What rays with stacks inside (n, V) cross: the sums of their media's coefficients (the world's included)
@@ -428,7 +462,7 @@ class Media:
         the rays O, D (n, 3), the heterogeneous media they are in, marched where asked (Stretch.march). Their phase
         function: HG of that mean where every medium that scatters there is HG, else the phase function of the
         medium that scatters most (the world first, then the columns in order, on a tie)."""
-        weights = inside.astype(np.float64)
+        weights = (inside > 0).astype(np.float64)          # (each medium the ray is in, once: Media.start)
         sigma_s = self.world.sigma_s + weights @ self.sigma_s
         scattering = self.world.sigma_s.sum() * self.world.g + weights @ (self.sigma_s.sum(axis=1) * self.g)
         total = sigma_s.sum(axis=1)
@@ -449,7 +483,7 @@ class Media:
         counts = None
         if self.fields and O is not None:
             columns = self.field_columns
-            counts = np.where(columns >= 0, inside[:, np.maximum(columns, 0)] if inside.shape[1] else 0, 1)
+            counts = np.where(columns >= 0, weights[:, np.maximum(columns, 0)] if inside.shape[1] else 0, 1)
             counts = np.broadcast_to(counts, (len(inside), len(columns))).astype(np.float64)
         return Stretch(self.world.sigma_t + weights @ self.sigma_t, sigma_s,
                        self.world.emission + weights @ self.emission, g, O, D, counts, self.fields or None, kind,
@@ -460,14 +494,14 @@ class Media:
         """The stacks (k, V) of rays that cross (crossing (k,) bool) surfaces of `material` (k,) rows on `objects`
         (k,) (objects_of): entering the medium the surface bounds (column_of) through a front face, leaving it through
         a back face (backfacing (k,) bool); a copy.
-        Leaving a medium the ray is not in changes nothing (Cycles' volume_stack_enter_exit)."""
+        Entering a medium the ray is already in, or leaving one it is not in, changes nothing (Cycles'
+        volume_stack_enter_exit: a mesh whose shells overlap, or a ray through two coincident faces, is one medium)."""
         inside = inside.copy()
         column = self.column_of(material, objects)
         rows = np.flatnonzero(crossing & (column >= 0))
-        if len(rows):
-            step = np.where(backfacing[rows], -1, 1).astype(np.int16)
-            np.add.at(inside, (rows, column[rows]), step)
-            np.maximum(inside, 0, out=inside)
+        back = np.asarray(backfacing, bool)[rows]
+        self.enter(inside, rows[~back], column[rows[~back]])
+        self.leave(inside, rows[back], column[rows[back]])
         return inside
 
 
@@ -747,6 +781,92 @@ def per_object(entries: list, space, geometry, row: int) -> list:
             factor = float(np.asarray(values["factor"]).reshape(-1)[j]) if "factor" in values else 1.0
             fixed[j].append((name, float(weight) * factor, given))
     return [(owners[group == g], medium_of(fixed[j]), None) for j, g in enumerate(order)]
+
+
+def object_boxes(geometry, rows: list) -> dict:
+    """Each object's box of the triangles of each material row of `rows`, in one pass: row -> (owners (j,) int64 the
+    Scene.instances entries that hold its triangles, low (j, 3), high (j, 3) float64 their boxes, whether some of
+    its triangles belong to no object)."""
+    objects = len(geometry.instance_random)
+    low = {row: np.full((objects, 3), np.inf) for row in rows}
+    high = {row: np.full((objects, 3), -np.inf) for row in rows}
+    loose = {row: False for row in rows}
+    wanted = np.asarray(sorted(rows), np.int64)
+    for prims, triangles in triangle_chunks(geometry):
+        mine = np.flatnonzero(np.isin(triangles.material, wanted))
+        if len(mine) == 0:
+            continue
+        owner = geometry.owners(prims[mine])
+        material = triangles.material[mine]
+        for row in np.unique(material):
+            at = material == row
+            loose[int(row)] |= bool((owner[at] < 0).any())
+            keep = at & (owner >= 0)
+            corners = triangles.corners[mine[keep]]                       # (k, 3, 3)
+            np.minimum.at(low[int(row)], owner[keep], corners.min(axis=1))
+            np.maximum.at(high[int(row)], owner[keep], corners.max(axis=1))
+    out = {}
+    for row in rows:
+        owners = np.flatnonzero(np.isfinite(low[row][:, 0]))
+        out[row] = (owners, low[row][owners], high[row][owners], loose[row])
+    return out
+
+
+def overlapping_boxes(low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """Which of j boxes low, high (j, 3) overlap some other of them (their insides meet; touching is not
+    overlapping): (j,) bool, compared 512 at a time."""
+    j = len(low)
+    out = np.zeros(j, bool)
+    for start in range(0, j, 512):
+        a = slice(start, min(start + 512, j))
+        meet = ((low[a, None, :] < high[None, :, :]) & (low[None, :, :] < high[a, None, :])).all(axis=2)
+        meet[np.arange(a.stop - a.start), np.arange(a.start, a.stop)] = False
+        out[a] = meet.any(axis=1)
+    return out
+
+
+def split_by_object(media: list, fields: dict, keyed: dict, geometry, object_groups=None) -> None:
+    """Keep per object (in `keyed`, in place: Media's columns kept per object) the media that Cycles' volume stack,
+    which holds (object, shader) pairs, tells apart and a stack of media could not: a medium on objects whose boxes
+    overlap (a ray in two of them is in the medium twice, where the stack holds each medium once: Media.enter), and
+    with object_groups ((n,) int64 each Scene.instances entry's light group, or None) an emitting medium on objects
+    of different light groups (each object's emission goes to its own group: lightgroups.LightGroups.of_media).
+    Only the objects that need it get a column of their own; the others of one group keep sharing one, so a medium
+    on objects apart and in one group stays one column. media, fields, keyed: Media.of's (material row -> its
+    Coefficients, Field, media kept per object)."""
+    rows = [row for row, medium in enumerate(media) if medium is not None]
+    if not rows or len(geometry.instance_random) < 2:
+        return
+    boxes = object_boxes(geometry, rows)
+
+    def emits(row) -> bool:
+        if row in keyed:
+            return any((np.asarray(c.emission) != 0.0).any() or (f is not None and f.emits) for _, c, f in keyed[row])
+        return bool((np.asarray(media[row].emission) != 0.0).any() or (row in fields and fields[row].emits))
+
+    for row in rows:
+        owners, low, high, loose = boxes[row]
+        if len(owners) < 2 or loose:
+            continue
+        own = np.where(overlapping_boxes(low, high), owners, -1)        # (an object of its own, or -1: shared)
+        group = (np.asarray(object_groups, np.int64)[owners] if object_groups is not None and emits(row)
+                 else np.zeros(len(owners), np.int64))
+        keys = np.stack([group, own], axis=1)
+        if row not in keyed and len(np.unique(keys, axis=0)) < 2:
+            continue
+        at = {int(o): k for k, o in enumerate(owners)}
+        kept = keyed.get(row) or [(owners, media[row], fields.get(row))]
+        split = []
+        for members, coefficients, field in kept:
+            members = np.asarray(members, np.int64)
+            mine = keys[[at[int(o)] for o in members]]
+            _, first, which = np.unique(mine, axis=0, return_index=True, return_inverse=True)
+            which = np.asarray(which).reshape(-1)
+            for n, k in enumerate(np.argsort(first)):               # (in the order of their first object)
+                split.append((members[which == k], coefficients,
+                              None if field is None else field if n == 0 else copy.copy(field)))
+        keyed[row] = split
+        fields.pop(row, None)
 
 
 # Cycles' box of the world's medium: +-WORLD_REACH around the world's origin on each axis (scene/volume.cpp: "World
