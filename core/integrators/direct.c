@@ -1119,16 +1119,17 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
                                  : ctx->world->lights != 0.0 && (ray->seen_as & ctx->world->hidden) == 0
                                    && !(clear_glass && ds->film_transparent);
     if (!hit && sees_world) {
-        double L_world[3];
-        world_seen(ctx->world, D, ray->path, L_world);     /* (a camera path's: the world's graph per ray) */
+        double L_world[3], pdf_world = 0.0;              /* (a camera path's: the world's graph per ray) */
+        int weighed = world_index >= 0 && use_mis;
+        world_seen_pdf(ctx->world, D, ray->path, L_world, weighed ? &pdf_world : NULL);
         if (sigma != NULL) {                            /* (an escaping ray through a medium keeps exp(-sigma inf)) */
             double kept[3];
             stretch_transmittance(lazy_march(&lazy), sigma, INFINITY, kept);
             for (int c = 0; c < 3; c++) L_world[c] *= kept[c];
         }
         double w = 1.0;
-        if (world_index >= 0 && use_mis)
-            w = power_heuristic(pdf_b, mis_samples(ds->lights + world_index) * world_pdf(ctx->world, D));
+        if (weighed)
+            w = power_heuristic(pdf_b, mis_samples(ds->lights + world_index) * pdf_world);
         if (ray->ao)                                    /* (Fast GI: its MIS weight kept, as Cycles') */
             for (int c = 0; c < 3; c++) L_world[c] *= ds->ao_factor;
         for (int c = 0; c < 3; c++) light_L[c] += L_world[c] * w;

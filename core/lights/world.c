@@ -1,21 +1,23 @@
 /* The world: core/lights/world.py. A constant colour, or an equirectangular image importance-sampled
  * by a map of its brightness x sin(theta). */
 
-/* world.direction_to_uv of a unit direction already in texture space. */
-INLINE void world_uv(const double *d, double *u, double *v)
+/* world.direction_to_uv of a unit direction already in texture space, and sin theta of its row (sin(pi v), as
+ * sqrt(1 - z^2): one libm call fewer than the reference's sine). */
+INLINE void world_uv(const double *d, double *u, double *v, double *sin_theta)
 {
     double z = d[2] < -1.0 ? -1.0 : (d[2] > 1.0 ? 1.0 : d[2]);
     *u = (PI - atan2(d[1], d[0])) / (2.0 * PI);
     *v = 1.0 - acos(z) / PI;
+    *sin_theta = sqrt((1.0 - z) * (1.0 + z));
 }
 
-/* world.uv_to_direction. */
-INLINE void world_direction(double u, double v, double *d)
+/* world.uv_to_direction, and sin theta of the direction. */
+INLINE void world_direction(double u, double v, double *d, double *sin_theta)
 {
     double phi = PI - 2.0 * PI * u, theta = PI * (1.0 - v);
-    double sin_theta = sin(theta);
-    d[0] = sin_theta * cos(phi);
-    d[1] = sin_theta * sin(phi);
+    *sin_theta = sin(theta);
+    d[0] = *sin_theta * cos(phi);
+    d[1] = *sin_theta * sin(phi);
     d[2] = cos(theta);
 }
 
@@ -44,6 +46,24 @@ INLINE void world_lookup(const WorldTables *w, double u, double v, double *out)
     }
 }
 
+/* World.radiance at texture coordinates u, v: the image's bilinear texel times the strength. */
+INLINE void world_radiance_uv(const WorldTables *w, double u, double v, double *out)
+{
+    world_lookup(w, u, v, out);
+    for (int c = 0; c < 3; c++) out[c] *= w->strength;
+}
+
+/* WorldLight.pdf at texture coordinates u, v of a direction whose sin theta is given: f / (total 2 pi^2 sin theta)
+ * of its map cell. */
+INLINE double world_pdf_uv(const WorldTables *w, double u, double v, double sin_theta)
+{
+    int64_t mw = (int64_t)w->map_width, mh = (int64_t)w->map_height;
+    int64_t x = (int64_t)(u * (double)mw), y = (int64_t)(v * (double)mh);
+    x = x < 0 ? 0 : (x > mw - 1 ? mw - 1 : x);
+    y = y < 0 ? 0 : (y > mh - 1 ? mh - 1 : y);
+    return sin_theta > 0.0 ? w->map[y * mw + x] / (w->total * 2.0 * PI * PI * sin_theta) : 0.0;
+}
+
 /* World.radiance: the radiance arriving from direction D (world space). */
 INLINE void world_radiance(const WorldTables *w, const double *D, double *out)
 {
@@ -51,25 +71,34 @@ INLINE void world_radiance(const WorldTables *w, const double *D, double *out)
         for (int c = 0; c < 3; c++) out[c] = w->color[c];
         return;
     }
-    double local[3], u, v;
+    double local[3], u, v, sin_theta;
     world_to_texture(w, D, local);
-    world_uv(local, &u, &v);
-    world_lookup(w, u, v, out);
-    for (int c = 0; c < 3; c++) out[c] *= w->strength;
+    world_uv(local, &u, &v, &sin_theta);
+    world_radiance_uv(w, u, v, out);
 }
 
-/* WorldLight.pdf: f / (total 2 pi^2 sin theta) of the map cell of direction D. */
+/* WorldLight.pdf of direction D (world space). */
 INLINE double world_pdf(const WorldTables *w, const double *D)
 {
-    int64_t mw = (int64_t)w->map_width, mh = (int64_t)w->map_height;
-    double local[3], u, v;
+    double local[3], u, v, sin_theta;
     world_to_texture(w, D, local);
-    world_uv(local, &u, &v);
-    int64_t x = (int64_t)(u * (double)mw), y = (int64_t)(v * (double)mh);
-    x = x < 0 ? 0 : (x > mw - 1 ? mw - 1 : x);
-    y = y < 0 ? 0 : (y > mh - 1 ? mh - 1 : y);
-    double sin_theta = sin(PI * v);
-    return sin_theta > 0.0 ? w->map[y * mw + x] / (w->total * 2.0 * PI * PI * sin_theta) : 0.0;
+    world_uv(local, &u, &v, &sin_theta);
+    return world_pdf_uv(w, u, v, sin_theta);
+}
+
+/* World.radiance and WorldLight.pdf of direction D together (a BSDF ray that escapes, weighed by MIS): one
+ * conversion to texture coordinates for both where the world is an image. */
+INLINE double world_radiance_pdf(const WorldTables *w, const double *D, double *out)
+{
+    if (w->image == NULL) {
+        for (int c = 0; c < 3; c++) out[c] = w->color[c];
+        return world_pdf(w, D);
+    }
+    double local[3], u, v, sin_theta;
+    world_to_texture(w, D, local);
+    world_uv(local, &u, &v, &sin_theta);
+    world_radiance_uv(w, u, v, out);
+    return world_pdf_uv(w, u, v, sin_theta);
 }
 
 /* WorldLight.sample for u (2,): a row by the marginal distribution, a column within it. */
@@ -89,16 +118,18 @@ INLINE void sample_world(const WorldTables *w, const double *u, LightSample *out
     dx = dx < 0.0 ? 0.0 : (dx > 1.0 ? 1.0 : dx);
     dy = dy < 0.0 ? 0.0 : (dy > 1.0 ? 1.0 : dy);
     double uu = ((double)x + dx) / (double)mw, vv = ((double)y + dy) / (double)mh;
-    double local[3];
-    world_direction(uu, vv, local);
+    double local[3], sin_theta;
+    world_direction(uu, vv, local, &sin_theta);
     const double *R = w->rotation;                       /* back from texture space: R^T */
     for (int c = 0; c < 3; c++) out->L[c] = R[c] * local[0] + R[3 + c] * local[1] + R[6 + c] * local[2];
-    double sin_theta = sin(PI * vv);
     double pdf = sin_theta > 0.0 ? w->map[y * mw + x] / (w->total * 2.0 * PI * PI * sin_theta) : 0.0;
     out->pdf = pdf;
     out->strength = pdf > 0.0 ? 1.0 / pdf : 0.0;
     out->distance = INFINITY;
-    world_radiance(w, out->L, out->color);
+    if (w->image != NULL)                                /* (the radiance at the sampled u, v: no way back through L) */
+        world_radiance_uv(w, uu, vv, out->color);
+    else
+        world_radiance(w, out->L, out->color);
     out->position[0] = out->position[1] = out->position[2] = 0.0;
 }
 

@@ -70,6 +70,19 @@ INLINE void world_seen(const WorldTables *w, const double *D, const LightPath *p
     for (int c = 0; c < 3; c++) out[c] = isfinite(out[c]) && out[c] > 0.0 ? out[c] : 0.0;
 }
 
+/* world_seen, and WorldLight.pdf of D into `pdf` where it is not NULL (a ray weighed by MIS): where no graph runs per
+ * ray, one conversion of D to the image's coordinates serves both. */
+INLINE void world_seen_pdf(const WorldTables *w, const double *D, const LightPath *path, double *out, double *pdf)
+{
+    if (pdf != NULL && (w->seen == NULL || path == NULL)) {
+        *pdf = world_radiance_pdf(w, D, out);
+        return;
+    }
+    world_seen(w, D, path, out);
+    if (pdf != NULL)
+        *pdf = world_pdf(w, D);
+}
+
 /* world_graph.compiled_bake's band: rows row_start .. row_end - 1 of the bake, texel (i, j) the program along the
  * direction of u = (j + 1/2) / W, v = (i + 1/2) / H (world.c world_direction), for a path of `flags` alone. */
 static void world_bake_rows(const WorldBakeArgs *a)
@@ -78,7 +91,8 @@ static void world_bake_rows(const WorldBakeArgs *a)
     LightPath path = {a->flags, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
     for (int64_t i = a->row_start; i < a->row_end; i++)
         for (int64_t j = 0; j < a->width; j++) {
-            world_direction(((double)j + 0.5) / (double)a->width, ((double)i + 0.5) / (double)a->height, D);
+            double u = ((double)j + 0.5) / (double)a->width, v = ((double)i + 0.5) / (double)a->height, sin_theta;
+            world_direction(u, v, D, &sin_theta);
             world_graph_radiance(a->world, D, &path, reg, L);
             for (int c = 0; c < 3; c++) a->radiance[3 * (i * a->width + j) + c] = (float)L[c];
         }
