@@ -34,8 +34,15 @@ straight through purely clear surfaces (every closure a Transparent BSDF: clear_
 Cycles splits a camera path at its first catcher past transparent bounces: what those surfaces let through, T,
 makes the matte's alpha 1 - mean(T) (Cycles adds the split path's mean throughput to the matte's transparency) and
 multiplies K and B (the split path carries the throughput). Left out: a catcher behind a partly transparent surface
-(a Transparent BSDF mixed with other closures, an alpha: rendered as an ordinary object there, said once) and media
-in the catcher-only scene and in front of a catcher.
+(a Transparent BSDF mixed with other closures, an alpha: rendered as an ordinary object there, said once).
+
+Media, as Cycles 5.0: its volume kernel shades the camera ray's stretch before integrator_split_shadow_catcher, and
+the split path goes on from the catcher with a volume stack re-made of the catchers' own media alone
+(integrator_volume_stack_init with SHADOW_CATCHER_PATH_VISIBILITY; the world's volume "always assumed to be CG"). So
+what the media in front of a caught sample's catcher emit and scatter towards the camera is the matte's (its light
+groups and Volume Direct kept), and what they let through multiplies the split path as the clear surfaces' T does
+(`front_media`); the catcher-only scene has no media. Left out, said once (`media_notes`): a catcher's own Volume,
+media past the camera ray's first surface, and with Volume Bounces what media in front of a catcher scatter.
 """
 from __future__ import annotations
 
