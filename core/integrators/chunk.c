@@ -422,15 +422,20 @@ INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure *
  * triangle (geometry, prim, instance) at t, barycentrics u, v: whether it meets a shadow catcher there or straight
  * through purely clear surfaces in front of one (catcher.clear_at: every closure a Transparent BSDF, no emission, no
  * holdout; a camera path's transparent bounces, within the transparent-bounce limit). Returns 1 where it does, with
- * T (3) what those surfaces let through and front (3) the lamps the camera sees in front of the catcher, each times
- * what the clear surfaces before it let through (not clamped); those before the first hit through the media the
- * camera ray starts in, `sigma` (3, its extinction) and `march` (as camera_sees), or NULL: none (catcher.py
- * front_media). sd: room for closures (its room, c and storage set), used here. */
+ * T (3) what those surfaces and the media along the way let through and front (3) the lamps the camera sees in
+ * front of the catcher, each times what the surfaces and media before it let through (not clamped). Media: the
+ * camera ray starts in `stack` (its extinction `sigma` (3) and `march` on the first stretch, as camera_sees), or
+ * stack NULL: none; each clear surface passed changes it (stack_cross), and what the later stretches' media emit,
+ * times what comes before, is added to glow (3) (catcher.py front_media, media_along; the first stretch's is the
+ * lane's own). room: a March for those stretches. sd: room for closures (its room, c and storage set), used here. */
 NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, const double *D, double t_max,
                                    double time, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
                                    double t, int64_t pixel, int64_t index, ShaderResult *sd, double *T, double *front,
-                                   const double *sigma, const March *march)
+                                   const VolumeStack *stack, const double *sigma, const March *march, March *room,
+                                   double *glow)
 {
+    VolumeStack inside;
+    if (stack != NULL) inside = *stack;
     Intersect8 intersect = (Intersect8)params->intersect8;
     ShaderRays rays = {intersect, (Occluded8)params->occluded8, params->scene, params->geometry, params->seed};
     double o[3] = {O[0], O[1], O[2]};
@@ -444,9 +449,29 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
         if (!catcher && (m->may_pass == 0 || passed + 1 >= (int)params->transparent_bounces
                          || hidden_from(params->geometry, geometry, prim, instance, HOLDOUT)))
             return 0;
-        double seen[3];                         /* the lamps along this stretch, through the clear surfaces so far */
-        camera_sees(params, o, D, t, 1, seen, NULL, passed == 0 ? sigma : NULL, passed == 0 ? march : NULL);
+        /* This stretch's media: the lane's on the first, the stack's past a clear surface. */
+        const double *sg = NULL;
+        const March *mm = NULL;
+        double stretch_sigma[3], stretch_e[3];
+        if (stack != NULL && passed == 0) {
+            sg = sigma;
+            mm = march;
+        } else if (stack != NULL) {
+            medium_along(params->media, &inside, stretch_sigma, stretch_e);
+            mm = stretch_march(params->media, &inside, o, D, t, stretch_sigma, stretch_e, room);
+            sg = stretch_sigma;
+            double emitted[3] = {0.0, 0.0, 0.0};
+            stretch_emitted(mm, sg, stretch_e, t, emitted);
+            for (int c = 0; c < 3; c++) glow[c] += T[c] * emitted[c];
+        }
+        double seen[3];                         /* the lamps along this stretch, through what comes before */
+        camera_sees(params, o, D, t, 1, seen, NULL, sg, mm);
         for (int c = 0; c < 3; c++) front[c] += T[c] * seen[c];
+        if (sg != NULL) {
+            double kept[3];
+            stretch_transmittance(mm, sg, t, kept);
+            for (int c = 0; c < 3; c++) T[c] *= kept[c];
+        }
         if (catcher) return 1;
         /* The surface: clear, and what it lets through. */
         Surface s;
@@ -468,6 +493,7 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
             if (sd->emission[c] != 0.0 || sd->holdout[c] != 0.0) return 0;
         for (int c = 0; c < 3; c++) T[c] *= sd->transparency[c];
         if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0)) return 0;
+        if (stack != NULL) stack_cross(params->media, &inside, &s, 1);
         /* On from just past it, straight ahead (the camera's clipping end stays). */
         double next[3];
         spawn_ray(s.I, s.Ng, D, s.offset, next);
@@ -575,6 +601,7 @@ static void render_chunk(const ChunkArgs *a)
     CameraBlock b;
     BlockHits H;
     March lane_march;                    /* (a camera ray's march through heterogeneous media: field.c) */
+    March catcher_march;                 /* (and one past a clear surface in front of a catcher: catcher_behind) */
     PathWork *work = NULL;
     int light_passes = params->light_passes != 0.0 && out->light != NULL;
     int64_t G = out->groups != NULL && params->light_groups > 0 && params->light_groups <= MAX_LIGHT_GROUPS
@@ -703,12 +730,9 @@ static void render_chunk(const ChunkArgs *a)
                 caught[lane] = (uint8_t)catcher_behind(params, O, D, b.t[lane], b.time[lane], H.geometry[h], H.prim[h],
                                                        H.instance[h], H.bary[2 * h], H.bary[2 * h + 1], H.t[lane],
                                                        (int64_t)b.pixel[lane], (int64_t)b.index[lane], &clear_sd,
-                                                       through[lane], front[lane], sigma, marched);
-                if (caught[lane] && sigma != NULL) {    /* (what the media in front let through: catcher.py) */
-                    double kept[3];
-                    stretch_transmittance(marched, sigma, H.t[lane], kept);
-                    for (int c = 0; c < 3; c++) through[lane][c] *= kept[c];
-                }
+                                                       through[lane], front[lane],
+                                                       sigma != NULL ? &H.lane_inside[lane] : NULL, sigma, marched,
+                                                       &catcher_march, front_emitted[lane]);
             }
             if (b.valid[lane] && sees_more) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
@@ -726,7 +750,7 @@ static void render_chunk(const ChunkArgs *a)
                 stretch_emitted(marched, sigma, H.lane_emission[lane], H.t[lane], emitted);
                 for (int c = 0; c < 3; c++) s[c] += emitted[c];
                 if (caught[lane])
-                    for (int c = 0; c < 3; c++) front_emitted[lane][c] = emitted[c];
+                    for (int c = 0; c < 3; c++) front_emitted[lane][c] += emitted[c];
                 if (groups != NULL)
                     add_to_group(seen, G, 0, emission_group(params->media, &H.lane_inside[lane], params->world_group),
                                  emitted, 1.0);
