@@ -293,3 +293,139 @@ def test_a_catcher_behind_a_partly_transparent_pane_is_said_to_render_as_an_ordi
     assert sum("partly transparent" in w for w in caught.stats.warnings) == 1
     scene.instances[0].is_shadow_catcher = False
     np.testing.assert_allclose(caught.image, render.render(scene, settings).image, rtol=1e-6)
+
+
+# Shadow catchers in media (Cycles 5.0: the camera path's volume kernel runs before integrator_split_shadow_catcher,
+# so what the media in front of a catcher emit and scatter is the matte's and the split path carries what they let
+# through; the split path's volume stack is re-made of the catchers' own media, the world's left out).
+FOG = np.array([0.2, 0.5, 0.8])          # an absorbing fog's colour: sigma_a = density (1 - colour)
+
+
+def in_a_fog_box(volume: list, low: float, high: float, height: float = 3.0) -> Scene:
+    """A grey catcher floor (albedo 0.5) at z = 0 seen straight down by an orthographic camera `height` above it,
+    inside a volume-only box of the closures `volume` from z = low to z = high (10 m wide), no lamp."""
+    scene = Scene(camera=Camera(matrix_world=np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, height], [0, 0, 0, 1.0]]),
+                                type="ORTHO", ortho_scale=2.0, clip_start=0.1, clip_end=20.0))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.materials.append(materials.Material(np.zeros(3), "Fog", nodes=[("TRANSPARENT", np.ones(3), {})],
+                                              volume=volume, volume_only=True))
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([0]))
+    scene.instances[0].is_shadow_catcher = True
+    scene.add_mesh(primitives.box((10.0, 10.0, high - low), center=(0.0, 0.0, (low + high) / 2.0)),
+                   materials=np.array([1]))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_an_absorbing_fog_dims_the_matte_by_its_transmittance_and_shadows_the_catcher_by_its_depth(kernels):
+    """A catcher floor under a straight-down sun, camera and floor inside an absorbing fog that reaches 4 m up (the
+    camera 3 m up): the camera path reaches the floor with T_d = exp(-sigma_a d), so the matte is black with alpha
+    1 - mean(T_d) (Cycles adds the split path's mean throughput to the matte's transparency); the catcher-only scene
+    has no fog (it is no catcher's), so the sun's light through 4 m of it over its light without it is the pass,
+    exp(-sigma_a 4) per channel (within float32 rounding), the same on a transparent and an opaque film. (The
+    camera's rays start at its clip start, 0.1 m: 2.9 m of fog in front of the floor.)"""
+    density = 0.3
+    sigma = density * (1.0 - FOG)
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": density})], -0.5, 4.0)
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=2.0))
+    for transparent in (True, False):
+        settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                                  shadow_catcher_pass=True, transparent_background=transparent)
+        result = render.render(scene, settings)
+        np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(np.exp(-sigma * 4.0), (4, 4, 3)),
+                                   rtol=1e-5)
+        np.testing.assert_allclose(result.image[..., :3], 0.0, atol=1e-7)
+        np.testing.assert_allclose(result.image[..., 3], 1.0 - np.exp(-sigma * 2.9).mean(), rtol=2e-6)
+    assert not any("Volume is left out" in w for w in result.stats.warnings)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_what_a_fog_in_front_of_the_catcher_emits_is_the_matte(kernels):
+    """A purely emitting fog (strength e, no extinction) from 1 m to 4 m up, the camera inside it 3 m up, the catcher
+    floor below it, no lamp: the camera path gathers e x 1.9 m of the fog's light (from its clip start, 0.1 m, to
+    the fog's bottom) before it meets the floor, which Cycles writes before its split, to the matte: Combined (the
+    matte) is 1.9 e in each channel with alpha 0 (nothing in
+    front absorbs), and the pass 1 (no catcher-only light: Cycles' division by 0). Without the pass on a transparent
+    film the same (the approximation adds no shadow where the pass is 1)."""
+    e = 0.7
+    scene = in_a_fog_box([("EMISSION", 1.0, {"color": np.ones(3), "strength": e})], 1.0, 4.0)
+    for with_pass in (True, False):
+        settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                                  shadow_catcher_pass=with_pass, transparent_background=True)
+        result = render.render(scene, settings)
+        np.testing.assert_allclose(result.image[..., :3], 1.9 * e, rtol=1e-6)
+        np.testing.assert_allclose(result.image[..., 3], 0.0, atol=1e-7)
+        if with_pass:
+            np.testing.assert_array_equal(result.aux["shadow_catcher"], 1.0)
+
+
+@pytest.mark.parametrize("top", [5.0, 2.5])
+def test_the_kernels_agree_on_a_catcher_in_a_scattering_fog(top):
+    """The ball over the catcher floor under the two suns, inside a scattering, absorbing and emitting fog box up to
+    `top` (the camera, 3 m up, inside it or outside, looking in through its boundary): the compiled kernel's
+    Combined, Shadow Catcher pass, Volume Direct and light groups are the reference's (what the fog in front of the
+    floor scatters and emits in the matte, its light passes and groups; the split path through its
+    transmittance)."""
+    fog = [("PRINCIPLED_VOLUME", 1.0, {"color": np.array([0.9, 0.8, 0.7]), "density": 0.15,
+                                       "absorption_color": np.array([0.9, 0.9, 0.9]),
+                                       "emission_strength": 0.05, "emission_color": np.ones(3)})]
+    images = {}
+    for kernels in KERNELS:
+        scene = ball_over_catcher(world=0.2)
+        scene.materials.append(materials.Material(np.zeros(3), "Fog", nodes=[("TRANSPARENT", np.ones(3), {})],
+                                                  volume=fog, volume_only=True))
+        scene.add_mesh(primitives.box((12.0, 12.0, top + 1.0), center=(1.0, 0.0, (top - 1.0) / 2.0)),
+                       materials=np.array([1]))
+        scene.lightgroups = {"lights": ["S", ""], "instances": ["", "", "F"], "world": "W"}
+        settings = RenderSettings(width=16, height=16, samples=4, kernels=kernels, integrator="path", max_bounces=2,
+                                  shadow_catcher_pass=True, passes=("diffuse_direct", "volume_direct"),
+                                  light_groups=("S", "W", "F"))
+        result = render.render(scene, settings)
+        assert result.stats.kernels.startswith(kernels)
+        images[kernels] = result
+    numpy, compiled = images["numpy"], images["compiled"]
+    assert (numpy.image[..., 3] > 0.0).all() and (numpy.aux["volume_direct"] > 0.0).all() == (top > 3.0)
+    np.testing.assert_allclose(compiled.image, numpy.image, rtol=1e-5, atol=4e-6)
+    for name in ["shadow_catcher", "volume_direct", "lightgroup:S", "lightgroup:W", "lightgroup:F"]:
+        np.testing.assert_allclose(compiled.aux[name], numpy.aux[name], rtol=1e-5, atol=4e-6, err_msg=name)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_fog_box_between_the_camera_and_the_catcher_glows_in_the_matte_and_shadows_in_the_pass(kernels):
+    """The camera 3 m up outside a fog box from 0.5 m to 2 m that absorbs (sigma_a) and glows (e), the catcher floor
+    below it under a straight-down sun: the camera path crosses the box's boundary (a clear surface, Cycles' volume
+    stack entering the fog) and 1.5 m of fog before the floor, so the matte is the fog's glow e (1 - T) / sigma_a
+    with alpha 1 - mean(T), T = exp(-sigma_a 1.5); without the glow (which lights the floor too) the pass is the
+    sun's light through the box over its light without it, T per channel (within float32 rounding)."""
+    density, e = 0.4, 0.3
+    sigma = density * (1.0 - FOG)
+    T = np.exp(-sigma * 1.5)
+    absorbing = ("ABSORPTION", 1.0, {"color": FOG, "density": density})
+    settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                              shadow_catcher_pass=True, transparent_background=True)
+    for glow in (0.0, e):
+        scene = in_a_fog_box([absorbing, ("EMISSION", 1.0, {"color": np.ones(3), "strength": glow})], 0.5, 2.0)
+        scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=2.0))
+        result = render.render(scene, settings)
+        np.testing.assert_allclose(result.image[..., :3], np.broadcast_to(glow * (1.0 - T) / sigma, (4, 4, 3)),
+                                   rtol=1e-5, atol=1e-7)
+        np.testing.assert_allclose(result.image[..., 3], 1.0 - T.mean(), rtol=1e-5)
+        if glow == 0.0:
+            np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(T, (4, 4, 3)), rtol=1e-5)
+
+
+def test_what_primer_leaves_out_of_catchers_in_media_is_said_once():
+    """A catcher with a Volume of its own (Cycles keeps it in the catcher-only scene), a scattering fog box seen from
+    outside (its scattering past the boundary), Volume Bounces 2 (what the fog in front scatters): each said once;
+    an absorbing fog around everything, Volume Bounces 0, says none of them."""
+    scene = in_a_fog_box([("SCATTER", 1.0, {"color": np.full(3, 0.5), "density": 0.3})], 0.5, 2.0)
+    scene.materials[0] = materials.Material((0.5, 0.5, 0.5), "Floor", nodes=[("DIFFUSE", (0.5,) * 3, {})],
+                                            volume=[("ABSORPTION", 1.0, {"color": FOG, "density": 0.1})])
+    settings = RenderSettings(width=4, height=4, samples=1, kernels="numpy", integrator="path", max_bounces=2,
+                              volume_bounces=2, shadow_catcher_pass=True)
+    warnings = render.render(scene, settings).stats.warnings
+    for words in ("catcher object's own Volume", "past a Transparent surface", "Volume Bounces above 0"):
+        assert sum(words in w for w in warnings) == 1, (words, warnings)
+    quiet = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": 0.3})], -0.5, 4.0)
+    warnings = render.render(quiet, dataclasses.replace(settings, volume_bounces=0)).stats.warnings
+    assert not any("shadow catchers" in w for w in warnings), warnings

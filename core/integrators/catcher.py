@@ -34,8 +34,17 @@ straight through purely clear surfaces (every closure a Transparent BSDF: clear_
 Cycles splits a camera path at its first catcher past transparent bounces: what those surfaces let through, T,
 makes the matte's alpha 1 - mean(T) (Cycles adds the split path's mean throughput to the matte's transparency) and
 multiplies K and B (the split path carries the throughput). Left out: a catcher behind a partly transparent surface
-(a Transparent BSDF mixed with other closures, an alpha: rendered as an ordinary object there, said once) and media
-in the catcher-only scene and in front of a catcher.
+(a Transparent BSDF mixed with other closures, an alpha: rendered as an ordinary object there, said once).
+
+Media, as Cycles 5.0: its volume kernel shades the camera ray's stretch before integrator_split_shadow_catcher, and
+the split path goes on from the catcher with a volume stack re-made of the catchers' own media alone
+(integrator_volume_stack_init with SHADOW_CATCHER_PATH_VISIBILITY; the world's volume "always assumed to be CG"). So
+what the media in front of a caught sample's catcher emit and scatter towards the camera is the matte's (its light
+groups and Volume Direct kept), and what they let through multiplies the split path as the clear surfaces' T does
+(`front_media`; past a clear surface or a volume's boundary in front of the catcher, the media it leads into add
+their emission and transmittance the same way, sample_rows); the catcher-only scene has no media. Left out, said once
+(`media_notes`): a catcher's own Volume, what media past the camera ray's first surface scatter, and with Volume
+Bounces what media in front of a catcher scatter.
 """
 from __future__ import annotations
 
@@ -48,7 +57,7 @@ import numpy as np
 from ..native import schema
 from ..visibility import EVERY_RAY, SHADOW_CATCHER
 from . import clamp as clamp_
-from . import lightgroups
+from . import lightgroups, lightpasses
 from . import passes as passes_
 from .base import Context, Recorder
 from .rays import lamps_seen, nearest_seen
@@ -58,6 +67,7 @@ from .. import materials as materials_
 from ..geometry.surface import surface_at_hits
 from ..materials import graph as graph_
 from ..visibility import HOLDOUT
+from .. import volumes
 from .whitted import WhittedTracing
 
 WHITTED = WhittedTracing.name
@@ -73,7 +83,7 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
     """The Context of the catcher-only scene of `ctx` (module docstring), or None where no object is a catcher:
     its geometry hides every other object from every ray, the emitters of those objects light no closure, its
     integrator writes no passes, light groups or features nor Fast GI's added occlusion, its camera rays see no lamps,
-    and it has no media. What
+    and it has no media (Cycles leaves the world's volume and those of objects that are not catchers out). What
     it leaves out of Cycles' catchers is said once in `warnings` (where the scene has it)."""
     geometry = ctx.geometry
     if geometry is None or not geometry.hides(SHADOW_CATCHER):
@@ -84,9 +94,7 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
                      "BSDF mixed with other closures, an alpha) renders as an ordinary object there (Cycles shows "
                      "only its shadows where the camera path goes through); behind purely Transparent surfaces "
                      "it is caught")
-    if ctx.extra.get("media") is not None:
-        notes.append("shadow catchers: the catcher-only light the Shadow Catcher pass divides by leaves the volumes "
-                     "out (Cycles keeps the catchers' media), and volumes in front of a catcher go to it, not the matte")
+    notes.extend(media_notes(ctx, geometry))
     for note in notes:
         if warnings is not None and note not in warnings:
             warnings.append(note)
@@ -108,6 +116,34 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
     extra.pop("media_bounds", None)
     extra.pop("catcher", None)
     return dataclasses.replace(ctx, settings=settings, geometry=view, lights=lights, extra=extra)
+
+
+def media_notes(ctx: Context, geometry) -> list:
+    """What Primer leaves out of Cycles' shadow catchers in media (module docstring), one note each: a catcher
+    object's own Volume (Cycles keeps the catchers' media in the catcher-only scene: Primer's has none), what media
+    between a clear surface and the catcher behind it scatter (their emission and transmittance are kept:
+    sample_rows), and with Volume Bounces what media in front of a catcher scatter (`chains`)."""
+    media = ctx.extra.get("media")
+    if media is None:
+        return []
+    notes = []
+    if media.has_medium.any():
+        prims = np.flatnonzero(geometry.hidden(np.arange(geometry.triangle_count), SHADOW_CATCHER))
+        if len(prims) and media.has_medium[geometry.triangle_data(prims, smooth=False).material].any():
+            notes.append("shadow catchers: a catcher object's own Volume is left out of the catcher-only light the "
+                         "Shadow Catcher pass divides by (Cycles keeps the catchers' media there; the world's and "
+                         "other objects' volumes it leaves out, as Primer does)")
+    if media.scatters and any(may and only_clear(shader)
+                              for may, shader in zip(ctx.materials.may_pass, ctx.materials.shaders)):
+        notes.append("shadow catchers: the light scattering volumes send to the camera past a Transparent surface or "
+                     "a volume's boundary in front of a catcher goes to the Shadow Catcher pass, not the matte "
+                     "(Cycles writes it to the matte; Primer does for the media before the camera ray's first "
+                     "surface, and keeps the emission and transmittance of them all)")
+    if media.scatters and chains(ctx):
+        notes.append("shadow catchers: with Volume Bounces above 0, the light scattering volumes in front of a "
+                     "catcher send to the camera goes to the Shadow Catcher pass, not the matte (Cycles writes it "
+                     "to the matte; with Volume Bounces 0 Primer does too); their transmittance is kept")
+    return notes
 
 
 def only_clear(shader) -> bool:
@@ -152,13 +188,15 @@ def caught(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> tup
     surfaces in front of it (clear_at: Cycles splits a camera path at its first catcher past transparent bounces, up
     to the transparent-bounce limit), which escape at once (past objects hidden from the camera), how far each went
     to its first hit, what the clear surfaces let through to the catcher, and the stretches along which it sees
-    lamps: ((n,) bool, (n,) bool, (n,) float64, (n, 3) float64, [(rows (k,), O (k, 3), t (k,), T (k, 3)), ...])."""
+    lamps: ((n,) bool, (n,) bool, (n,) float64, (n, 3) float64, [(rows (k,), O (k, 3), t (k,), T (k, 3), crossed),
+    ...]), crossed None on the first stretch, else the clear surface it starts at (material (k,), backfacing (k,),
+    prim (k,): where the media change, media_along)."""
     n = len(O)
     first = np.zeros(n, bool)
     T = np.ones((n, 3))
     found = nearest_seen(ctx, O, D, t_max)
     escaped, t0 = ~found.hit, np.where(found.hit, found.t, t_max)
-    stretches = [(np.arange(n), O, t0, T.copy())]
+    stretches = [(np.arange(n), O, t0, T.copy(), None)]
     rows, O_now, passed = np.arange(n), O, np.zeros(n, np.int64)
     # (Whitted's tracer sees no Transparent surface through: its camera rays end at the first hit)
     limit = ctx.settings.transparent_max_bounces if ctx.settings.integrator != WHITTED else 0
@@ -182,7 +220,8 @@ def caught(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> tup
         rows, passed = rows[more], passed[more] + 1
         gone = np.einsum("ij,ij->i", O_now - O[rows], D[rows])        # (the camera's clipping end stays)
         found = nearest_seen(ctx, O_now, D[rows], t_max[rows] - gone)
-        stretches.append((rows, O_now, np.where(found.hit, found.t, np.inf), T[rows].copy()))
+        stretches.append((rows, O_now, np.where(found.hit, found.t, np.inf), T[rows].copy(),
+                          (surface.material, surface.backfacing, surface.prim)))
     return first, escaped, t0, T, stretches
 
 
@@ -202,9 +241,6 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
     first, escaped, t, through, stretches = caught(ctx, O, D, t_max)
     held = traced[first]
     rows[held, :4] = 0.0
-    # the matte: a hole where the catcher is, as opaque as the clear surfaces in front of it are not (Cycles adds
-    # the split path's mean throughput to the matte's transparency)
-    rows[held, 3] = 1.0 - through[first].mean(axis=1)
     rows[held, 10] = 1.0
     if len(held):
         kept = np.flatnonzero(first)
@@ -214,24 +250,62 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
         front = np.zeros((len(kept), 3))
         where = np.full(len(O), -1, np.int64)
         where[kept] = np.arange(len(kept))
-        for stretch_rows, O_s, t_s, T_s in stretches:
+        # (the media along the camera ray up to its first hit, as the render's own camera ray crosses them: their
+        #  emission and scattering are written before Cycles' split, to the matte; what they let through is in the
+        #  split path's throughput)
+        media_front = front_media(ctx, O[kept], D[kept], t[kept], pixel[kept], sample[kept])
+        # (and past each clear surface in front of the catcher, the media it leads into: what they emit, and what
+        #  they let through, times what comes before)
+        passed_media = np.ones((len(O), 3))
+        inside = None
+        if media_front is not None:
+            inside = np.zeros((len(O),) + media_front.inside.shape[1:], media_front.inside.dtype)
+            inside[kept] = media_front.inside
+        for number, (stretch_rows, O_s, t_s, T_s, crossed) in enumerate(stretches):
             mine = where[stretch_rows] >= 0
             if not mine.any():
                 continue
-            index = where[stretch_rows[mine]]
+            index, mine_rows = where[stretch_rows[mine]], stretch_rows[mine]
+            sigma = None
+            if media_front is not None and number == 0:
+                sigma = media_front.stretch
+            elif media_front is not None:
+                media = ctx.extra["media"]
+                material, backfacing, prim = (x[mine] for x in crossed)
+                inside[mine_rows] = media.crossed(inside[mine_rows], material, backfacing, np.ones(len(index), bool),
+                                                  media.objects_of(ctx.geometry, prim))
+                sigma = media.along(inside[mine_rows], O_s[mine], D[mine_rows])
+            before = T_s[mine] * passed_media[mine_rows]
             part = lightgroups.tally(ctx, len(index)) if tally is not None else None
-            front[index] += T_s[mine] * lamps_seen(ctx, O_s[mine], D[stretch_rows[mine]], t_s[mine], part)
+            front[index] += before * lamps_seen(ctx, O_s[mine], D[mine_rows], t_s[mine], part, sigma=sigma)
             if part is not None:
-                tally.add_rows(index, part, T_s[mine])
+                tally.add_rows(index, part, before)
+            if sigma is not None:
+                if number > 0:
+                    front[index] += before * volumes.emitted(sigma, t_s[mine])
+                passed_media[mine_rows] *= sigma.transmittance(t_s[mine])
+        if media_front is not None:
+            front += media_front.emitted
+            lightgroups.add_emitted(tally, np.arange(len(kept)), media_front.emitted, media_front.stretch)
         cap = clamp_.limits(ctx.settings)[0]
         if np.isfinite(cap):
             f = clamp_.scale(front, None, cap)
             front = front * f[:, None]
             if tally is not None:
                 tally.scale(f)
+        if media_front is not None:              # (what they scatter: not clamped, as the render's)
+            front += media_front.scattered
+            if tally is not None and media_front.groups is not None:
+                tally.L += media_front.groups.L
+            through[kept] *= passed_media[kept]
+        # the matte: a hole where the catcher is, as opaque as the clear surfaces and media in front of it are not
+        # (Cycles adds the split path's mean throughput to the matte's transparency)
+        rows[held, 3] = 1.0 - through[kept].mean(axis=1)
         rows[held, :3] = front
         if light is not None:
             light[kept] = 0.0
+            if media_front is not None:          # (what the media in front scatter: Volume Direct, before the split)
+                light[kept, lightpasses.VOLUME] += media_front.scattered
         if groups is not None:
             groups[kept] = tally.L
         # (the catcher-only light, through the clear surfaces in front of the catcher: Cycles' split path carries
@@ -244,6 +318,55 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
         seen = world.radiance_seen(D[behind])
         rows[traced[behind], 7:10] = seen * np.where(first[behind, None], through[behind], 1.0)
     return rows
+
+
+@dataclasses.dataclass
+class FrontMedia:
+    """What the media along caught camera rays send to the camera in front of their first hit (k rows):
+    stretch: the rays' core/volumes Stretch; emitted, scattered: (k, 3) float64 their emission (as the render's camera
+    ray gathers it) and their scattering (the render's estimate, same random numbers); T: (k, 3) float64 what they
+    let through to the hit (the render's throughput there); groups: the scattered light by light group
+    (lightgroups.GroupLight) or None; inside: (k, V) the media the rays start in (rays.camera_media)."""
+    stretch: object
+    emitted: np.ndarray
+    scattered: np.ndarray
+    T: np.ndarray
+    groups: object = None
+    inside: Optional[np.ndarray] = None
+
+
+def front_media(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, pixel: np.ndarray,
+                sample: np.ndarray) -> Optional[FrontMedia]:
+    """The media in front of the first hits, at distances t (k,), of caught camera rays O, D (k, 3) of samples
+    `sample` of pixels `pixel` (k,): a FrontMedia, as path.PathTracing.radiance computes them for those rays (so the
+    same values), or None without media. Cycles shades them before it splits the path at the catcher (its volume
+    kernel runs before integrator_split_shadow_catcher), so they belong to the matte. With Volume Bounces
+    (volume.multiple_scattering: `chains`) their scattering is left out (said once: catcher_context)."""
+    media = ctx.extra.get("media")
+    if media is None:
+        return None
+    from . import volume as volume_
+    from .path import through_transparent
+    from .rays import camera_media
+    from .. import volumes
+    k = len(O)
+    inside = camera_media(ctx, O, D)
+    stretch = media.along(inside, O, D)
+    scattered = np.zeros((k, 3))
+    groups = lightgroups.tally(ctx, k)
+    if media.scatters and not chains(ctx):
+        scattered, _ = volume_.in_scattering(ctx, O, D, t, inside, np.ones((k, 3)), pixel, sample, 0, 0,
+                                             through_transparent, None, groups)
+    return FrontMedia(stretch, volumes.emitted(stretch, t), scattered, stretch.transmittance(t), groups, inside)
+
+
+def chains(ctx: Context) -> bool:
+    """Whether the render's camera paths go on from where they scatter in media (Volume Bounces: path.py's
+    `onward`, chunk.c's `chains`)."""
+    from . import for_render
+    integrator = for_render(ctx)
+    return (ctx.settings.integrator == "path" and not getattr(integrator, "direct_only", False)
+            and ctx.settings.volume_bounces > 0 and ctx.settings.max_bounces >= 1)
 
 
 def images(sums: np.ndarray, combined: np.ndarray, count: np.ndarray, transparent: bool,

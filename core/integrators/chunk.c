@@ -422,13 +422,20 @@ INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure *
  * triangle (geometry, prim, instance) at t, barycentrics u, v: whether it meets a shadow catcher there or straight
  * through purely clear surfaces in front of one (catcher.clear_at: every closure a Transparent BSDF, no emission, no
  * holdout; a camera path's transparent bounces, within the transparent-bounce limit). Returns 1 where it does, with
- * T (3) what those surfaces let through and front (3) the lamps the camera sees in front of the catcher, each times
- * what the clear surfaces before it let through (not clamped). sd: room for closures (its room, c and storage set),
- * used here. */
+ * T (3) what those surfaces and the media along the way let through and front (3) the lamps the camera sees in
+ * front of the catcher, each times what the surfaces and media before it let through (not clamped). Media: the
+ * camera ray starts in `stack` (its extinction `sigma` (3) and `march` on the first stretch, as camera_sees), or
+ * stack NULL: none; each clear surface passed changes it (stack_cross), and what the later stretches' media emit,
+ * times what comes before, is added to glow (3) (catcher.py front_media, media_along; the first stretch's is the
+ * lane's own). room: a March for those stretches. sd: room for closures (its room, c and storage set), used here. */
 NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, const double *D, double t_max,
                                    double time, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
-                                   double t, int64_t pixel, int64_t index, ShaderResult *sd, double *T, double *front)
+                                   double t, int64_t pixel, int64_t index, ShaderResult *sd, double *T, double *front,
+                                   const VolumeStack *stack, const double *sigma, const March *march, March *room,
+                                   double *glow)
 {
+    VolumeStack inside;
+    if (stack != NULL) inside = *stack;
     Intersect8 intersect = (Intersect8)params->intersect8;
     ShaderRays rays = {intersect, (Occluded8)params->occluded8, params->scene, params->geometry, params->seed};
     double o[3] = {O[0], O[1], O[2]};
@@ -442,9 +449,29 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
         if (!catcher && (m->may_pass == 0 || passed + 1 >= (int)params->transparent_bounces
                          || hidden_from(params->geometry, geometry, prim, instance, HOLDOUT)))
             return 0;
-        double seen[3];                         /* the lamps along this stretch, through the clear surfaces so far */
-        camera_sees(params, o, D, t, 1, seen, NULL, NULL, NULL);
+        /* This stretch's media: the lane's on the first, the stack's past a clear surface. */
+        const double *sg = NULL;
+        const March *mm = NULL;
+        double stretch_sigma[3], stretch_e[3];
+        if (stack != NULL && passed == 0) {
+            sg = sigma;
+            mm = march;
+        } else if (stack != NULL) {
+            medium_along(params->media, &inside, stretch_sigma, stretch_e);
+            mm = stretch_march(params->media, &inside, o, D, t, stretch_sigma, stretch_e, room);
+            sg = stretch_sigma;
+            double emitted[3] = {0.0, 0.0, 0.0};
+            stretch_emitted(mm, sg, stretch_e, t, emitted);
+            for (int c = 0; c < 3; c++) glow[c] += T[c] * emitted[c];
+        }
+        double seen[3];                         /* the lamps along this stretch, through what comes before */
+        camera_sees(params, o, D, t, 1, seen, NULL, sg, mm);
         for (int c = 0; c < 3; c++) front[c] += T[c] * seen[c];
+        if (sg != NULL) {
+            double kept[3];
+            stretch_transmittance(mm, sg, t, kept);
+            for (int c = 0; c < 3; c++) T[c] *= kept[c];
+        }
         if (catcher) return 1;
         /* The surface: clear, and what it lets through. */
         Surface s;
@@ -466,6 +493,7 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
             if (sd->emission[c] != 0.0 || sd->holdout[c] != 0.0) return 0;
         for (int c = 0; c < 3; c++) T[c] *= sd->transparency[c];
         if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0)) return 0;
+        if (stack != NULL) stack_cross(params->media, &inside, &s, 1);
         /* On from just past it, straight ahead (the camera's clipping end stays). */
         double next[3];
         spawn_ray(s.I, s.Ng, D, s.offset, next);
@@ -494,17 +522,19 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
 
 /* A sample's share of the shadow catchers' matte and background (catcher.py sample_rows) into its pixel's sums
  * row (CATCHER_CHANNELS): its RGBA s where its camera ray along D did not meet a catcher first, where it did
- * (`caught`, through clear surfaces that let T (3) through: catcher_behind) the lamps the camera sees in front of
- * it alone, `front` (3, capped here by Clamp Direct), alpha 1 - mean(T) and one caught sample; behind: it was
- * caught or escaped, so the world along D is behind it (times T where caught; where the film is not transparent and
- * the camera sees the world). */
+ * (`caught`, through clear surfaces and media that let T (3) through: catcher_behind, front_media) the lamps the
+ * camera sees in front of it, `front` (3), with what the media in front emit, `emitted` (3), capped here by Clamp
+ * Direct, and what they scatter, `scattered` (3, not capped), alpha 1 - mean(T) and one caught sample; behind: it
+ * was caught or escaped, so the world along D is behind it (times T where caught; where the film is not transparent
+ * and the camera sees the world). */
 INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught, const double *T, const double *front,
-                          int behind, const double *D, double *row)
+                          const double *emitted, const double *scattered, int behind, const double *D, double *row)
 {
     if (caught) {
-        double one[3] = {1.0, 1.0, 1.0};
-        double f = clamp_scale(front, one, params->clamp_direct, 1.0);
-        for (int c = 0; c < 3; c++) row[c] += finite_or_zero(front[c] * f);
+        double one[3] = {1.0, 1.0, 1.0}, seen[3];
+        for (int c = 0; c < 3; c++) seen[c] = front[c] + emitted[c];
+        double f = clamp_scale(seen, one, params->clamp_direct, 1.0);
+        for (int c = 0; c < 3; c++) row[c] += finite_or_zero(seen[c] * f + scattered[c]);
         row[3] += 1.0 - (T[0] + T[1] + T[2]) / 3.0;
         row[10] += 1.0;
     } else {
@@ -571,6 +601,7 @@ static void render_chunk(const ChunkArgs *a)
     CameraBlock b;
     BlockHits H;
     March lane_march;                    /* (a camera ray's march through heterogeneous media: field.c) */
+    March catcher_march;                 /* (and one past a clear surface in front of a catcher: catcher_behind) */
     PathWork *work = NULL;
     int light_passes = params->light_passes != 0.0 && out->light != NULL;
     int64_t G = out->groups != NULL && params->light_groups > 0 && params->light_groups <= MAX_LIGHT_GROUPS
@@ -595,8 +626,11 @@ static void render_chunk(const ChunkArgs *a)
     /* Shadow catchers (catcher.py): the caught samples are followed again in the catcher-only scene's params. */
     const ChunkParams *alone = out->catcher != NULL ? (const ChunkParams *)params->catcher : NULL;
     int catching = alone != NULL;
+    /* (with Volume Bounces a camera ray's path goes on from where it scatters: integrate's chains) */
+    int chains = (int)params->integrator == INTEGRATOR_PATH && params->volume_bounces > 0 && params->max_bounces >= 1;
     uint8_t caught[BLOCK];
     double through[BLOCK][3], front[BLOCK][3];      /* (what clear surfaces in front of a catcher let through; lamps) */
+    double front_emitted[BLOCK][3], front_scattered[BLOCK][3];   /* (what the media in front of it emit, scatter) */
     ShaderResult clear_sd;                          /* (room for the closures of those surfaces: catcher_behind) */
     int64_t clear_room = params->closure_room < 1 ? 1 : (int64_t)params->closure_room;
     clear_sd.room = (int)clear_room;
@@ -682,20 +716,23 @@ static void render_chunk(const ChunkArgs *a)
             double *groups = G > 0 ? out->groups + 3 * G * k : NULL;      /* (the pixel's light groups) */
             for (int64_t i = 0; i < 3 * G; i++) seen[i] = 0.0;
             int is_hit = h < H.m && H.lane[h] == lane;
-            caught[lane] = 0;
-            if (catching && is_hit) {               /* (its catcher, at once or through clear surfaces: catcher.caught) */
-                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
-                caught[lane] = (uint8_t)catcher_behind(params, O, D, b.t[lane], b.time[lane], H.geometry[h], H.prim[h],
-                                                       H.instance[h], H.bary[2 * h], H.bary[2 * h + 1], H.t[lane],
-                                                       (int64_t)b.pixel[lane], (int64_t)b.index[lane], &clear_sd,
-                                                       through[lane], front[lane]);
-            }
             const double *sigma = params->media != NULL ? H.lane_sigma[lane] : NULL;
             const March *marched = NULL;                /* (the camera ray's march through heterogeneous media) */
             if (sigma != NULL && b.valid[lane] && params->media->fields != NULL) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
                 marched = stretch_march(params->media, &H.lane_inside[lane], O, D, H.t[lane], sigma,
                                         H.lane_emission[lane], &lane_march);
+            }
+            caught[lane] = 0;
+            for (int c = 0; c < 3; c++) front_emitted[lane][c] = front_scattered[lane][c] = 0.0;
+            if (catching && is_hit) {               /* (its catcher, at once or through clear surfaces: catcher.caught) */
+                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
+                caught[lane] = (uint8_t)catcher_behind(params, O, D, b.t[lane], b.time[lane], H.geometry[h], H.prim[h],
+                                                       H.instance[h], H.bary[2 * h], H.bary[2 * h + 1], H.t[lane],
+                                                       (int64_t)b.pixel[lane], (int64_t)b.index[lane], &clear_sd,
+                                                       through[lane], front[lane],
+                                                       sigma != NULL ? &H.lane_inside[lane] : NULL, sigma, marched,
+                                                       &catcher_march, front_emitted[lane]);
             }
             if (b.valid[lane] && sees_more) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
@@ -712,6 +749,8 @@ static void render_chunk(const ChunkArgs *a)
                 double emitted[3] = {0.0, 0.0, 0.0};    /* (its light group: the medium's object's, media.c) */
                 stretch_emitted(marched, sigma, H.lane_emission[lane], H.t[lane], emitted);
                 for (int c = 0; c < 3; c++) s[c] += emitted[c];
+                if (caught[lane])
+                    for (int c = 0; c < 3; c++) front_emitted[lane][c] += emitted[c];
                 if (groups != NULL)
                     add_to_group(seen, G, 0, emission_group(params->media, &H.lane_inside[lane], params->world_group),
                                  emitted, 1.0);
@@ -733,10 +772,15 @@ static void render_chunk(const ChunkArgs *a)
             }
             if (scattering) {                           /* what its media scatter towards it (not clamped) */
                 for (int c = 0; c < 3; c++) s[c] += H.lane_scattered[lane][c];
-                if (light_passes && !caught[lane])      /* (and its light passes: integrate's lane_light) */
+                /* (in front of a catcher: the matte's, its light passes and groups kept, as Cycles writes them before
+                 *  its split; with Volume Bounces left to the pass, catcher.py front_media) */
+                int kept = !caught[lane] || !chains;
+                if (caught[lane] && !chains)
+                    for (int c = 0; c < 3; c++) front_scattered[lane][c] = H.lane_scattered[lane][c];
+                if (light_passes && kept)               /* (and its light passes: integrate's lane_light) */
                     for (int i = 0; i < LIGHT_CHANNELS; i++)
                         out->light[LIGHT_CHANNELS * k + i] += finite_or_zero(work->lane_light[lane][i]);
-                if (G > 0 && work->lane_groups != NULL && !caught[lane])   /* (and its chains' light groups) */
+                if (G > 0 && work->lane_groups != NULL && kept)   /* (and its chains' light groups) */
                     for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->lane_groups[3 * G * lane + i];
             }
             if (passes != NULL && b.valid[lane]) {      /* (what the camera ray passes and escapes to, then its chain's) */
@@ -786,8 +830,9 @@ static void render_chunk(const ChunkArgs *a)
             add_sample(s, params->luminance, out->rgba + 4 * k, out->squares != NULL ? out->squares + 2 * k : NULL);
             if (catching) {
                 double D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
-                catcher_matte(params, s, caught[lane], through[lane], front[lane],
-                              b.valid[lane] && (caught[lane] || !is_hit), D, out->catcher + CATCHER_CHANNELS * k);
+                catcher_matte(params, s, caught[lane], through[lane], front[lane], front_emitted[lane],
+                              front_scattered[lane], b.valid[lane] && (caught[lane] || !is_hit), D,
+                              out->catcher + CATCHER_CHANNELS * k);
             }
         }
         /* 5. The caught samples again, in the catcher-only scene: their light there (catcher.py K). */
