@@ -77,8 +77,41 @@ def _face_attribute(mesh, name: str, data_type: str, dtype, default) -> np.ndarr
     return values
 
 
+def _all_triangles(mesh) -> bool:
+    """Whether every face of `mesh` is a triangle (3 corners each, as glTF and most imported meshes are): then its
+    loop triangles are its faces, in order, each of corners 3 f, 3 f + 1, 3 f + 2 (Blender's triangulation keeps a
+    triangle's corners as they are)."""
+    faces = len(mesh.polygons)
+    return len(mesh.loops) == 3 * faces and len(mesh.loop_triangles) == faces
+
+
+def _triangle_loops(mesh) -> np.ndarray:
+    """Return the face corner (loop) of each loop triangle's corners: (3 t,) int32. RNA reads loop triangles one
+    item at a time (0.1 s for 10^6 triangles); a mesh of triangles alone needs no read (_all_triangles)."""
+    if _all_triangles(mesh):
+        return np.arange(3 * len(mesh.polygons), dtype=np.int32)
+    loops = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    return loops
+
+
+def _positions(mesh) -> np.ndarray:
+    """Return the mesh's vertex positions: (3 v,) float32, read from Blender's own `position` array where it has one
+    (without RNA's per-item path), else through the vertices."""
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    attribute = mesh.attributes.get("position")
+    if (attribute is not None and attribute.domain == "POINT" and attribute.data_type == "FLOAT_VECTOR"
+            and len(attribute.data) * 3 == len(co)):
+        attribute.data.foreach_get("vector", co)
+    else:
+        mesh.vertices.foreach_get("co", co)
+    return co
+
+
 def _triangle_faces(mesh) -> np.ndarray:
     """Return the face each loop triangle belongs to: (t,) int32."""
+    if _all_triangles(mesh):
+        return np.arange(len(mesh.polygons), dtype=np.int32)
     face = np.empty(len(mesh.loop_triangles), np.int32)
     if hasattr(mesh, "loop_triangle_polygons"):              # Blender's own array
         mesh.loop_triangle_polygons.foreach_get("value", face)
@@ -280,13 +313,11 @@ def _mesh_arrays(mesh) -> core_scene.Mesh:
     custom normals) are read only when some face is smooth. Face values are read from the mesh's
     attributes (`sharp_face`, `material_index`, the triangles' faces) rather than from RNA's
     per-triangle properties, which Blender computes one item at a time: about 4 times faster on
-    `modifiers_instances`, the same numbers (_mesh_arrays_by_rna, tests/test_blender_scenes.py).
+    `modifiers_instances`, the same numbers (_mesh_arrays_by_rna, tests/test_blender_scenes.py). A mesh of
+    triangles alone reads no loop triangles at all (_triangle_loops).
     """
-    n_triangles = len(mesh.loop_triangles)
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.vertices.foreach_get("co", co)
-    loops = np.empty(n_triangles * 3, np.int32)                         # the triangles' face corners
-    mesh.loop_triangles.foreach_get("loops", loops)
+    co = _positions(mesh)
+    loops = _triangle_loops(mesh)                                       # the triangles' face corners
     triangles = _corner_vertices(mesh)[loops]
     face = _triangle_faces(mesh)
     smooth = ~_face_attribute(mesh, "sharp_face", "BOOLEAN", bool, False)[face]
@@ -344,9 +375,7 @@ def _active_render(collection):
 
 def _corner_loops(mesh) -> np.ndarray:
     """The face corner (loop) of each triangle corner: (t, 3) int64."""
-    loops = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    return loops.reshape(-1, 3).astype(np.int64)
+    return _triangle_loops(mesh).reshape(-1, 3).astype(np.int64)
 
 
 def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> None:
@@ -359,9 +388,7 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
         return
     loops = _corner_loops(mesh)
     t = len(loops)
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.vertices.foreach_get("co", co)
-    co = co.reshape(-1, 3).astype(np.float64)
+    co = _positions(mesh).reshape(-1, 3).astype(np.float64)
     corner_vertex = _corner_vertices(mesh)
     for name in missing:
         kind, _, layer = name.partition(":")

@@ -235,6 +235,22 @@ def test_world_map_in_c_is_the_reference_maps_numbers(size):
         np.testing.assert_array_equal(made, expected)
 
 
+@pytest.mark.parametrize("size", [(64, 32), (1024, 512), (100, 37)])
+def test_compensated_world_map_in_c_is_the_reference_maps_numbers(size):
+    """The map less its mean made in C (world.c compensated_rows, in bands of rows, after world_map_rows) is the numpy
+    reference's compensated_map, bit for bit: values floored at 0, each row's normalised running sums and its total,
+    rows left all 0 included."""
+    from core.lights.world import compensated_map, compiled_map, reference_map
+    values = np.random.default_rng(7).random((48, 96)) * (np.arange(96) % 5 == 0)
+    values[20:30] = 0.0
+    w, h = size
+    sines = np.sin(np.pi * ((np.arange(h) + 0.5) / h))
+    expected = compensated_map(reference_map(values, sines, w, h)[0], sines)
+    assert (expected[2] == 0.0).any() and (expected[2] > 0.0).any()
+    for made, wanted in zip(compiled_map(values, sines, w, h, compensate=True), expected):
+        np.testing.assert_array_equal(made, wanted)
+
+
 @pytest.mark.parametrize("sampling, resolution, environments, suns, guided, size", [
     ("AUTOMATIC", 1024, [(1024, 512)], 0, True, (4096, 2048)),      # an HDRI of 1k: Cycles maps it at 4k
     ("AUTOMATIC", 1024, [(8192, 4096)], 0, True, (8192, 4096)),

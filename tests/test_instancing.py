@@ -317,3 +317,70 @@ def test_embree_names_the_placement_the_point_search_finds():
         checked += len(on)
     assert checked > 5000
     assert (instance[geometry == 0] == -1).all() and (instance[geometry < 0] == -1).all()
+
+
+def twin_spheres_scene(count: int = 6) -> Scene:
+    """Return `count` spheres that are separate Scene meshes of the same numbers (an importer's copies of one shape,
+    one per material), each placed once with a material of its own, and one sphere that differs in one vertex."""
+    scene = Scene(camera=Camera.look_at((0.0, -9.0, 5.0), (0.0, 0.0, 0.0), fov=math.radians(55)),
+                  world_color=np.array([0.02, 0.02, 0.03]))
+    for index in range(count + 1):
+        scene.add_material((0.1 + 0.1 * index, 0.5, 0.5))
+    sphere = primitives.uv_sphere(1.0, 12, 6, smooth=True)
+    for index in range(count + 1):
+        twin = dataclasses.replace(sphere, vertices=sphere.vertices.copy(), triangles=sphere.triangles.copy(),
+                                   corner_normals=sphere.corner_normals.copy(), name=f"Sphere {index}")
+        if index == count:
+            twin.vertices[0, 2] += 1e-3                       # one number differs: a mesh of its own
+        scene.meshes.append(twin)
+        M = np.eye(4)
+        M[:3, 3] = (2.5 * index - 7.0, 0.0, 0.5)
+        scene.instances.append(Instance(index, M, np.array([index]), f"Object {index}"))
+    scene.lights.append(SunLight(np.array([-0.4, 0.5, -0.77]) / np.linalg.norm([-0.4, 0.5, -0.77]), strength=1.0))
+    return scene
+
+
+def test_identical_meshes_are_placed_as_one_mesh():
+    """Meshes of the same numbers are stored once and instanced, each placement with its own materials, as their
+    copies are; a mesh that differs in one number is not among them."""
+    from core.geometry.geometry import same_meshes
+    scene = twin_spheres_scene()
+    assert same_meshes(scene.meshes).tolist() == [0, 0, 0, 0, 0, 0, 6]
+    origin = np.asarray(scene.camera.matrix_world, np.float64)[:3, 3]
+    copied = build_geometry(scene, origin, instance_triangles=COPY)
+    instanced = build_geometry(scene, origin, instance_triangles=INSTANCE)
+    assert [len(m.transforms) for m in instanced.instanced] == [6]
+    assert len(instanced.triangles) == len(scene.meshes[6].triangles)          # the odd one out, copied
+    assert instanced.triangle_count == copied.triangle_count
+    prim = np.arange(copied.triangle_count)
+    a, b = copied.triangle_data(prim), instanced.triangle_data(prim)
+    # The copies number the six twins first, then the odd one; instanced, the copied odd one comes first.
+    odd = len(instanced.triangles)
+    same = np.concatenate([prim[odd:], prim[:odd]])
+    np.testing.assert_allclose(b.corners[same], a.corners, atol=1e-6)
+    np.testing.assert_array_equal(b.material[same], a.material)
+    np.testing.assert_allclose(b.corner_normals[same], a.corner_normals, atol=1e-6)
+    assert len(np.unique(b.material)) == 7
+
+
+def test_compiled_tables_keep_an_instanced_meshs_copied_arrays():
+    """The compiled kernels' tables of an instanced mesh read its material rows after Python made C-ordered copies
+    of them: a mesh that drops a zero-area triangle and whose placements use different materials has its material
+    table in Fortran order, copied for C, and that copy must live as long as the tables."""
+    import ctypes
+    import gc
+    from core.geometry.tables import GeometryTables
+    scene = twin_spheres_scene()
+    for mesh in scene.meshes:
+        mesh.triangles[0] = (0, 0, 1)                         # zero area: dropped from the prototype
+    origin = np.asarray(scene.camera.matrix_world, np.float64)[:3, 3]
+    geometry = build_geometry(scene, origin, instance_triangles=INSTANCE)
+    mesh = geometry.instanced[0]
+    assert not mesh.material.flags.c_contiguous               # (what made the copy)
+    tables = GeometryTables(geometry)
+    gc.collect()
+    litter = [np.full(mesh.material.size, -7, np.int32) for _ in range(64)]   # (memory a freed copy would give)
+    record = tables.meshes[0]
+    read = np.ctypeslib.as_array((ctypes.c_int32 * mesh.material.size).from_address(record.material))
+    np.testing.assert_array_equal(read.reshape(mesh.material.shape), mesh.material)
+    del litter

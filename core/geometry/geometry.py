@@ -418,6 +418,53 @@ def _normal_steps(instance, mesh, steps: int) -> Optional[np.ndarray]:
     return stacked.reshape(steps, -1, 3).astype(np.float32)
 
 
+def same_meshes(meshes: list) -> np.ndarray:
+    """Each mesh's first mesh of the same content (its points, triangles, smooth flags, material slots, corner
+    normals, attributes and curve info all equal): (m,) int64 indices into `meshes`. Identical meshes that are not
+    one datablock (an importer's copies of one shape, one per material) are then placed as one mesh."""
+    first = np.arange(len(meshes), dtype=np.int64)
+    by_size: dict = {}               # (vertex count, triangle count) -> mesh indices: only these can be equal
+    for index, mesh in enumerate(meshes):
+        by_size.setdefault((len(mesh.vertices), len(mesh.triangles)), []).append(index)
+    for indices in by_size.values():
+        if len(indices) < 2:
+            continue
+        seen: dict = {}              # a digest of the points -> the distinct meshes with them
+        for index in indices:
+            mesh = meshes[index]
+            candidates = seen.setdefault(hash(mesh.vertices.tobytes()), [])
+            first[index] = next((other for other in candidates if _same_mesh(meshes[other], mesh)), index)
+            if first[index] == index:
+                candidates.append(index)
+    return first
+
+
+def _same_mesh(a, b) -> bool:
+    """Whether two Scene meshes hold the same numbers (their names aside)."""
+    def same(x, y) -> bool:
+        return (x is None) == (y is None) and (x is None or np.array_equal(np.asarray(x), np.asarray(y)))
+    def same_dict(x: dict, y: dict) -> bool:
+        return x.keys() == y.keys() and all(same(x[k], y[k]) for k in x)
+    return (same(a.vertices, b.vertices) and same(a.triangles, b.triangles) and same(a.smooth, b.smooth)
+            and same(a.material_indices, b.material_indices) and same(a.corner_normals, b.corner_normals)
+            and same_dict(a.attributes or {}, b.attributes or {}) and same_dict(a.curve_info or {}, b.curve_info or {}))
+
+
+def _placed_meshes(scene: Scene, instance_triangles: int) -> np.ndarray:
+    """Each Scene instance's mesh as build_geometry groups them: (n,) int64 indices into scene.meshes. Identical
+    meshes (same_meshes) count as their first where their placements together are to be instanced (more than
+    `instance_triangles` triangles, twice or more, where Embree instances); elsewhere each keeps its own, so copies
+    stay in the order they had."""
+    mesh_of = np.fromiter((instance.mesh for instance in scene.instances), np.int64, len(scene.instances))
+    if len(mesh_of) < 2 or not embree_buffers.instancing_supported():
+        return mesh_of
+    first = same_meshes(scene.meshes)[mesh_of]
+    placements = np.bincount(first, minlength=len(scene.meshes))[first]
+    triangles = np.array([len(mesh.triangles) for mesh in scene.meshes], np.int64)[first]
+    instanced = (placements >= 2) & (placements * triangles > instance_triangles)
+    return np.where(instanced, first, mesh_of)
+
+
 def build_geometry(scene: Scene, origin: np.ndarray,
                    instance_triangles: Optional[int] = None, motion_blur: bool = False) -> WorldGeometry:
     """Place every instance in the world relative to `origin` and build the BVH.
@@ -453,7 +500,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 
     # Group instances by mesh (their indices into scene.instances), meshes in order of first use:
     # one batched transform per mesh, whatever the instance count.
-    mesh_of = np.fromiter((instance.mesh for instance in scene.instances), np.int64, n_instances)
+    mesh_of = _placed_meshes(scene, instance_triangles)
     order = np.argsort(mesh_of, kind="stable")
     by_mesh = np.split(order, np.flatnonzero(np.diff(mesh_of[order])) + 1) if n_instances else []
     by_mesh.sort(key=lambda owners: owners[0])

@@ -72,8 +72,13 @@ class GeometryTables:
         c = library.contiguous
         smooth = len(geometry.corner_normals) > 0
         self.meshes = (InstancedRecord * max(1, len(geometry.instanced)))()
+        # An element of a ctypes array is a new wrapper at each indexing, and the arrays a record points at are kept
+        # alive by its wrapper (schema.Record): the wrappers are kept here, or a copy `c` made (a material table
+        # in Fortran order, say) would be freed while C still reads it.
+        self._records = []
         for index, mesh in enumerate(geometry.instanced):
             record = self.meshes[index]
+            self._records.append(record)
             for name, array in (("vertices", c(mesh.vertices, np.float32)), ("triangles", c(mesh.triangles, np.int32)),
                                 ("smooth_index", c(mesh.smooth_index, np.int32)),
                                 ("corner_normals", c(mesh.corner_normals, np.float64).reshape(-1, 3, 3)),

@@ -149,10 +149,22 @@ INLINE int world_hit(const LightRecord *light, const double *O, const double *D,
 
 /* world.WorldLight.of's map, rows row_start .. row_end - 1: each cell's value linear between the texel centres of
  * the one-channel image (u repeats, v extends) times its row's sine, the row's running sums normalised to 1 (where
- * positive) and its total; the same operations in the same order as world.bilinear_grid and numpy's cumsum. */
+ * positive) and its total; the same operations in the same order as world.bilinear_grid and numpy's cumsum. Without
+ * `columns` (a map that compensated_rows changes next) only the values and totals. Each column's texels and weight
+ * are the same in every row: found once. */
 static void world_map_rows(const WorldMapArgs *a)
 {
     int64_t W = a->width, H = a->height, w = a->map_width, h = a->map_height;
+    int64_t *left = (int64_t *)malloc((size_t)(2 * w) * sizeof(int64_t)), *right = left + w;
+    double *weight = (double *)malloc((size_t)w * sizeof(double));
+    if (left == NULL || weight == NULL) { free(left); free(weight); return; }
+    for (int64_t j = 0; j < w; j++) {
+        double x = ((double)j + 0.5) / (double)w * (double)W - 0.5;
+        double x0 = floor(x);
+        weight[j] = x - x0;
+        left[j] = ((int64_t)x0 % W + W) % W;
+        right[j] = (((int64_t)x0 + 1) % W + W) % W;
+    }
     for (int64_t i = a->row_start; i < a->row_end; i++) {
         double y = ((double)i + 0.5) / (double)h * (double)H - 0.5;
         double y0 = floor(y), fy = y - y0;
@@ -160,15 +172,37 @@ static void world_map_rows(const WorldMapArgs *a)
         ya = ya < 0 ? 0 : (ya > H - 1 ? H - 1 : ya);
         yb = yb < 0 ? 0 : (yb > H - 1 ? H - 1 : yb);
         const double *top = a->values + ya * W, *bottom = a->values + yb * W;
-        double *f = a->map + i * w, *cdf = a->columns + i * (w + 1), sum = 0.0;
+        double *f = a->map + i * w, sum = 0.0;
+        double *cdf = a->columns != NULL ? a->columns + i * (w + 1) : NULL;
+        if (cdf != NULL) cdf[0] = 0.0;
+        for (int64_t j = 0; j < w; j++) {
+            double fx = weight[j];
+            double upper = top[left[j]] * (1.0 - fx) + top[right[j]] * fx;
+            double lower = bottom[left[j]] * (1.0 - fx) + bottom[right[j]] * fx;
+            f[j] = (upper * (1.0 - fy) + lower * fy) * a->sines[i];
+            sum += f[j];
+            if (cdf != NULL) cdf[j + 1] = sum;
+        }
+        a->totals[i] = sum;
+        if (cdf == NULL) continue;
+        double scale = sum > 0.0 ? sum : 1.0;
+        for (int64_t j = 0; j <= w; j++) cdf[j] /= scale;
+    }
+    free(left);
+    free(weight);
+}
+
+/* world.compensated_map, rows row_start .. row_end - 1 in place: each value less `less` times its row's sine,
+ * floored at 0, and the row's running sums and total as world_map_rows makes them (numpy's operations, in order). */
+static void compensated_rows(const CompensatedMapArgs *a)
+{
+    int64_t w = a->map_width;
+    for (int64_t i = a->row_start; i < a->row_end; i++) {
+        double *f = a->map + i * w, *cdf = a->columns + i * (w + 1), sum = 0.0, shift = a->less * a->sines[i];
         cdf[0] = 0.0;
         for (int64_t j = 0; j < w; j++) {
-            double x = ((double)j + 0.5) / (double)w * (double)W - 0.5;
-            double x0 = floor(x), fx = x - x0;
-            int64_t xa = ((int64_t)x0 % W + W) % W, xb = (((int64_t)x0 + 1) % W + W) % W;
-            double upper = top[xa] * (1.0 - fx) + top[xb] * fx;
-            double lower = bottom[xa] * (1.0 - fx) + bottom[xb] * fx;
-            f[j] = (upper * (1.0 - fy) + lower * fy) * a->sines[i];
+            double g = f[j] - shift;
+            f[j] = g > 0.0 ? g : 0.0;
             sum += f[j];
             cdf[j + 1] = sum;
         }

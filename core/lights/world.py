@@ -242,19 +242,36 @@ WorldMapArgs = schema.function("primer_world_map", "world_map_rows", schema.reco
     ("row_start", I64, "the first row made"),
     ("row_end", I64, "past the last"),
     ("map", schema.out(F64), "(h, w) the map's values"),
+    ("columns", schema.out(F64), "(h, w + 1) each row's normalised running sums, or NULL: not made"),
+    ("totals", schema.out(F64), "(h,) each row's sum"),
+]))
+
+CompensatedMapArgs = schema.function("primer_compensated_map", "compensated_rows", schema.record("CompensatedMapArgs", "primer_compensated_map's arguments: rows row_start .. row_end - 1 of a world's importance map made less its mean (world.compensated_map's numbers), in place.", [
+    ("sines", ptr(F64), "(h,) each map row's sin(theta)"),
+    ("less", F64, "the mean taken off, per unit sine"),
+    ("map_width", I64, "w"),
+    ("row_start", I64, "the first row made"),
+    ("row_end", I64, "past the last"),
+    ("map", schema.out(F64), "(h, w) the map's values, made less in place"),
     ("columns", schema.out(F64), "(h, w + 1) each row's normalised running sums"),
     ("totals", schema.out(F64), "(h,) each row's sum"),
 ]))
 
 
-def compiled_map(values: np.ndarray, sines: np.ndarray, w: int, h: int) -> tuple:
-    """reference_map by world.c (world_map_rows), in bands of rows, one per thread: the same numbers."""
+def compiled_map(values: np.ndarray, sines: np.ndarray, w: int, h: int, compensate: bool = False) -> tuple:
+    """reference_map by world.c (world_map_rows), in bands of rows, one per thread: the same numbers; compensate:
+    compensated_map's of them (compensated_rows), the plain map's running sums not made."""
     values = np.ascontiguousarray(values, np.float64)
     sines = np.ascontiguousarray(sines, np.float64)
     f, columns, totals = np.empty((h, w)), np.empty((h, w + 1)), np.empty(h)
     library.in_row_bands(h, lambda start, end: library.call("primer_world_map", WorldMapArgs(
         values=values, sines=sines, width=values.shape[1], height=values.shape[0], map_width=w, map_height=h,
-        row_start=start, row_end=end, map=f, columns=columns, totals=totals)))
+        row_start=start, row_end=end, map=f, columns=None if compensate else columns, totals=totals)))
+    if compensate:
+        less = 0.5 * math.pi * float(f.mean())           # (compensated_map's mean: numpy's sum, the same number)
+        library.in_row_bands(h, lambda start, end: library.call("primer_compensated_map", CompensatedMapArgs(
+            sines=sines, less=less, map_width=w, row_start=start, row_end=end, map=f, columns=columns,
+            totals=totals)))
     return f, columns, totals
 
 
@@ -330,10 +347,12 @@ class WorldLight(Light):
         pixels = np.where(np.isfinite(pixels), pixels, 0.0)
         mean = (pixels[..., 0] + pixels[..., 1] + pixels[..., 2]) * (abs(world.strength) / 3.0)
         sines = np.sin(math.pi * ((np.arange(h) + 0.5) / h))
-        f, columns, totals = (compiled_map if kernels == "compiled" and library.available() else reference_map)(
-            mean, sines, w, h)
-        if compensate:
-            f, columns, totals = compensated_map(f, sines)
+        if kernels == "compiled" and library.available():
+            f, columns, totals = compiled_map(mean, sines, w, h, compensate)
+        else:
+            f, columns, totals = reference_map(mean, sines, w, h)
+            if compensate:
+                f, columns, totals = compensated_map(f, sines)
         row_sums = totals / w
         total = row_sums.sum() / h
         if not total > 0.0:

@@ -536,6 +536,7 @@ typedef struct EmitterPickArgs EmitterPickArgs;
 typedef struct EmitterPdfArgs EmitterPdfArgs;
 typedef struct LampGraph LampGraph;
 typedef struct WorldMapArgs WorldMapArgs;
+typedef struct CompensatedMapArgs CompensatedMapArgs;
 typedef struct WorldTables WorldTables;
 typedef struct WorldGraph WorldGraph;
 typedef struct WorldBakeArgs WorldBakeArgs;
@@ -1107,6 +1108,18 @@ struct WorldMapArgs {
     int64_t row_start;                      /* the first row made */
     int64_t row_end;                        /* past the last */
     double *map;                            /* (h, w) the map's values */
+    double *columns;                        /* (h, w + 1) each row's normalised running sums, or NULL: not made */
+    double *totals;                         /* (h,) each row's sum */
+};
+
+/* primer_compensated_map's arguments: rows row_start .. row_end - 1 of a world's importance map made less its mean (world.compensated_map's numbers), in place. */
+struct CompensatedMapArgs {
+    const double *sines;                    /* (h,) each map row's sin(theta) */
+    double less;                            /* the mean taken off, per unit sine */
+    int64_t map_width;                      /* w */
+    int64_t row_start;                      /* the first row made */
+    int64_t row_end;                        /* past the last */
+    double *map;                            /* (h, w) the map's values, made less in place */
     double *columns;                        /* (h, w + 1) each row's normalised running sums */
     double *totals;                         /* (h,) each row's sum */
 };
@@ -1396,6 +1409,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterPdfArgs") == 0) return UINT64_C(3790277589427127310);
     if (strcmp(name, "LampGraph") == 0) return UINT64_C(3628791564941194139);
     if (strcmp(name, "WorldMapArgs") == 0) return UINT64_C(7748268880605941743);
+    if (strcmp(name, "CompensatedMapArgs") == 0) return UINT64_C(6807021337170947407);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(6964717275989497168);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
@@ -1445,6 +1459,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "EmitterPdfArgs") == 0) return (int64_t)sizeof(EmitterPdfArgs);
     if (strcmp(name, "LampGraph") == 0) return (int64_t)sizeof(LampGraph);
     if (strcmp(name, "WorldMapArgs") == 0) return (int64_t)sizeof(WorldMapArgs);
+    if (strcmp(name, "CompensatedMapArgs") == 0) return (int64_t)sizeof(CompensatedMapArgs);
     if (strcmp(name, "WorldTables") == 0) return (int64_t)sizeof(WorldTables);
     if (strcmp(name, "WorldGraph") == 0) return (int64_t)sizeof(WorldGraph);
     if (strcmp(name, "WorldBakeArgs") == 0) return (int64_t)sizeof(WorldBakeArgs);

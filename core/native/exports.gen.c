@@ -88,6 +88,11 @@ EXPORT void primer_world_map(WorldMapArgs *a)
     world_map_rows(a);
 }
 
+EXPORT void primer_compensated_map(CompensatedMapArgs *a)
+{
+    compensated_rows(a);
+}
+
 EXPORT void primer_world_bake(WorldBakeArgs *a)
 {
     world_bake_rows(a);
