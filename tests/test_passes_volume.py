@@ -8,6 +8,7 @@ pixel with media that scatter and emit, with and without Volume Bounces, on both
 follow the reference's."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -179,3 +180,24 @@ def test_an_emitting_slab_seen_by_the_camera_is_emission_and_the_world_behind_it
     np.testing.assert_allclose(result.aux["emission"] + result.aux["environment"], result.image[..., :3], rtol=1e-5)
     for name in LIGHT_PASSES:
         assert np.all(result.aux[name] == 0.0), name
+
+
+# Every pass of light a render can ask for (the light passes, their colour passes, Emission, Environment, AO).
+LIGHT_AND_COLOUR_PASSES = SUM_PASSES + ("ambient_occlusion",)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_each_pass_of_light_alone_is_the_same_as_beside_the_others(kernels):
+    """Each pass of light asked alone (Blender's one tick, Volume Direct among them: its colour-less light passes
+    once went unwritten without a first-hit pass beside them) equals the same pass asked beside all the others, bit
+    for bit, on a medium that scatters and emits over surfaces of every kind, with Volume Bounces."""
+    scene = fog_scene("COEFFICIENTS")
+    settings = RenderSettings(width=16, height=12, samples=2, integrator="path", max_bounces=4, volume_bounces=2,
+                              passes=LIGHT_AND_COLOUR_PASSES, kernels=kernels)
+    among = render(scene, settings)
+    assert among.stats.kernels.startswith(kernels)
+    for name in LIGHT_AND_COLOUR_PASSES:
+        alone = render(scene, dataclasses.replace(settings, passes=(name,))).aux
+        assert set(alone) & set(LIGHT_AND_COLOUR_PASSES) == {name}, name
+        assert among.aux[name].max() > 0.0, name
+        np.testing.assert_array_equal(alone[name], among.aux[name], err_msg=name)

@@ -280,6 +280,32 @@ def test_objects_seen_through_a_clear_pane_keep_it_in_the_matte(kernels):
     np.testing.assert_allclose(paned[hole][:, 3], 1.0 - PANE.mean(), rtol=1e-6)
 
 
+@pytest.mark.parametrize("clamp", [0.0, 0.2])
+def test_a_lamp_the_camera_sees_past_a_clear_pane_in_front_of_a_catcher_is_in_its_light_group(clamp):
+    """An area lamp in light group L facing the camera between a clear pane of colour c and the catcher floor: as
+    Cycles 5.0 writes a lamp a camera path hits before its split at the catcher to the lamp's light group
+    (shade_light.h film_write_surface_emission; the split sets PATH_RAY_SHADOW_CATCHER_HIT only at the catcher), group
+    L is c times the lamp's radiance there, as the matte is (on a transparent film, alpha 0 but for the pane), on both
+    kernels, with and without Clamp Direct (the group capped as the matte's lamp light)."""
+    scene = behind_a_pane(ball_over_catcher())
+    scene.lights.append(AreaLight(center=np.array([2.0, 0.3, 1.5]), axis_u=np.array([0.6, 0.0, 0.0]),
+                                  axis_v=np.array([0.0, 0.6, 0.0]), direction=np.array([0.0, 0.0, 1.0]), power=20.0))
+    scene.lightgroups = {"lights": ["", "", "L"], "instances": ["", "", ""], "world": ""}
+    results = {}
+    for kernels in KERNELS:
+        settings = RenderSettings(width=24, height=24, samples=2, kernels=kernels, max_bounces=0,
+                                  transparent_background=True, shadow_catcher_pass=True, light_groups=("L",),
+                                  sample_clamp_direct=clamp)
+        results[kernels] = render.render(scene, settings)
+        assert results[kernels].stats.kernels.startswith(kernels)
+        group, matte = results[kernels].aux["lightgroup:L"], results[kernels].image[..., :3]
+        lamp = (matte > 0.0).all(axis=-1)
+        assert lamp.sum() >= 9, kernels
+        np.testing.assert_allclose(group, matte, rtol=1e-6, atol=1e-7, err_msg=kernels)
+    np.testing.assert_allclose(results["compiled"].aux["lightgroup:L"], results["numpy"].aux["lightgroup:L"],
+                               rtol=1e-5, atol=4e-6)
+
+
 def test_a_catcher_behind_a_partly_transparent_pane_is_said_to_render_as_an_ordinary_object():
     """A pane that is a Transparent BSDF mixed with a diffuse one (no clear surface: Primer does not split paths
     there): the floor renders as an ordinary object behind it (Combined the render without any catcher there),

@@ -423,17 +423,20 @@ INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure *
  * through purely clear surfaces in front of one (catcher.clear_at: every closure a Transparent BSDF, no emission, no
  * holdout; a camera path's transparent bounces, within the transparent-bounce limit). Returns 1 where it does, with
  * T (3) what those surfaces and the media along the way let through and front (3) the lamps the camera sees in
- * front of the catcher, each times what the surfaces and media before it let through (not clamped). Media: the
- * camera ray starts in `stack` (its extinction `sigma` (3) and `march` on the first stretch, as camera_sees), or
- * stack NULL: none; each clear surface passed changes it (stack_cross), and what the later stretches' media emit,
- * times what comes before, is added to glow (3) (catcher.py front_media, media_along; the first stretch's is the
- * lane's own). room: a March for those stretches. sd: room for closures (its room, c and storage set), used here. */
+ * front of the catcher, each times what the surfaces and media before it let through (not clamped); groups: (G, 3)
+ * the lamps past the first clear surface by the group of each (the first stretch's are the caller's, camera_sees),
+ * times the same, added to (Cycles writes a lamp a camera path hits before its split to the lamp's group), or NULL.
+ * Media: the camera ray starts in `stack` (its extinction `sigma` (3) and `march` on the first stretch, as
+ * camera_sees), or stack NULL: none; each clear surface passed changes it (stack_cross), and what the later
+ * stretches' media emit, times what comes before, is added to glow (3) (catcher.py front_media, media_along; the
+ * first stretch's is the lane's own). room: a March for those stretches. sd: room for closures (its room, c and storage set), used here. */
 NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, const double *D, double t_max,
                                    double time, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
                                    double t, int64_t pixel, int64_t index, ShaderResult *sd, double *T, double *front,
                                    const VolumeStack *stack, const double *sigma, const March *march, March *room,
-                                   double *glow)
+                                   double *glow, double *groups)
 {
+    int64_t G = groups != NULL ? (int64_t)params->light_groups : 0;
     VolumeStack inside;
     if (stack != NULL) inside = *stack;
     Intersect8 intersect = (Intersect8)params->intersect8;
@@ -464,9 +467,11 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
             stretch_emitted(mm, sg, stretch_e, t, emitted);
             for (int c = 0; c < 3; c++) glow[c] += T[c] * emitted[c];
         }
-        double seen[3];                         /* the lamps along this stretch, through what comes before */
-        camera_sees(params, o, D, t, 1, seen, NULL, sg, mm);
+        double seen[3], part[3 * MAX_LIGHT_GROUPS];  /* the lamps along this stretch, through what comes before */
+        for (int64_t i = 0; i < 3 * G; i++) part[i] = 0.0;
+        camera_sees(params, o, D, t, 1, seen, passed > 0 && G > 0 ? part : NULL, sg, mm);
         for (int c = 0; c < 3; c++) front[c] += T[c] * seen[c];
+        for (int64_t i = 0; i < 3 * G; i++) groups[i] += T[i % 3] * part[i];
         if (sg != NULL) {
             double kept[3];
             stretch_transmittance(mm, sg, t, kept);
@@ -732,7 +737,7 @@ static void render_chunk(const ChunkArgs *a)
                                                        (int64_t)b.pixel[lane], (int64_t)b.index[lane], &clear_sd,
                                                        through[lane], front[lane],
                                                        sigma != NULL ? &H.lane_inside[lane] : NULL, sigma, marched,
-                                                       &catcher_march, front_emitted[lane]);
+                                                       &catcher_march, front_emitted[lane], groups != NULL ? seen : NULL);
             }
             if (b.valid[lane] && sees_more) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
@@ -763,6 +768,11 @@ static void render_chunk(const ChunkArgs *a)
                 for (int c = 0; c < 3; c++) s[c] *= f;
             }
             /* (the auxiliary sums take each sample's channel that is NaN or beyond the film as 0, as the image) */
+            if (caught[lane] && G > 0) {                /* (a caught sample's groups: capped as its matte's lamps) */
+                double one[3] = {1.0, 1.0, 1.0}, matte[3];
+                for (int c = 0; c < 3; c++) matte[c] = front[lane][c] + front_emitted[lane][c];
+                f = clamp_scale(matte, one, params->clamp_direct, 1.0);
+            }
             for (int64_t i = 0; i < 3 * G; i++) seen[i] *= f;
             if (features && b.valid[lane]) {            /* (what the camera sees itself, then its path's) */
                 double *fk = out->features + FEATURE_CHANNELS * k;

@@ -96,7 +96,10 @@ def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarr
     Cycles' own float32 arithmetic: integers read as value x (1 / 255) (65535; Blender's build turns the division
     into that product: measured, the exact halves of 4 x 4 means then round as Cycles'), summed row by row in
     float32, times 1 / count, rounded back as util_image_cast_from_float rounds them: bytes as Cycles', bit for
-    bit. Half floats (float16, as Cycles keeps a half-float file) are averaged in float32 and rounded back to half."""
+    bit. Half floats (float16, as Cycles keeps a half-float file) are averaged in float32 and rounded back to half as
+    Cycles 5.1+'s float_to_half_image (util/half.h: float_to_half of the mean clamped to +-65504, round to nearest,
+    ties to even, subnormals kept; Cycles 5.0's CPU version truncated the mantissa and flushed subnormals to 0,
+    half_truncated: one half step at most, not followed)."""
     h, w = pixels.shape[:2]
     scale = reduction(h, w, limit, resolution)
     if scale == 1.0:
@@ -111,7 +114,7 @@ def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarr
     blocks = values[:oh * kh, :ow * kw].reshape(oh, kh, ow, kw, -1).transpose(0, 2, 1, 3, 4).reshape(oh, ow, kh * kw, -1)
     total = np.cumsum(blocks, axis=2, dtype=np.float32)[:, :, -1]     # (sequential: Cycles' order, rows then texels)
     mean = (total * (np.float32(1.0) / np.float32(kh * kw))).reshape((oh, ow) + pixels.shape[2:])
-    if pixels.dtype == np.float16:                  # (float_to_half_image: clamped, rounded to nearest even)
+    if pixels.dtype == np.float16:                  # (5.1+'s float_to_half_image: clamped, nearest, ties to even)
         return np.ascontiguousarray(np.clip(mean, -65504.0, 65504.0).astype(np.float16))
     if top is None:
         return np.ascontiguousarray(mean)

@@ -774,12 +774,13 @@ def render(scene: Scene, settings: RenderSettings,
     elif settings.shadow_catcher_pass:           # (no catcher: the pass is 1 everywhere, as Cycles writes it)
         aux[catcher_.PASS_BUFFER] = np.ones((H, W, 3), np.float32)
     # The first-hit passes (passes.py), and the light passes divided by their colour passes (lightpasses.py).
-    if layout:
-        first_hit = passes_.images(film.aux, film.noise.count, layout, settings.cryptomatte_depth, H, W)
-        if light_passes:
-            first_hit.update(light_pass_images(film, first_hit, settings.passes))
-        aux.update({name: image for name, image in first_hit.items()
-                    if name in settings.passes or name.startswith(passes_.AOV_PREFIX)})
+    # (The light passes alone, the volume ones having no colour pass, leave the layout empty: they are written all the
+    # same.)
+    first_hit = passes_.images(film.aux, film.noise.count, layout, settings.cryptomatte_depth, H, W) if layout else {}
+    if light_passes:
+        first_hit.update(light_pass_images(film, first_hit, settings.passes))
+    aux.update({name: image for name, image in first_hit.items()
+                if name in settings.passes or name.startswith(passes_.AOV_PREFIX)})
     if settings.light_groups:
         aux.update(rgb_means(film, lightgroups.FILM_BUFFER,
                              [lightgroups.BUFFER_PREFIX + name for name in settings.light_groups]))
