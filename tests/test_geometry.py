@@ -152,3 +152,99 @@ def test_compiled_face_and_corner_normals_are_numpys_bit_for_bit():
     rows, placement = rng.integers(0, 300, 700), rng.integers(0, 6, 700)
     np.testing.assert_array_equal(normals.compiled_turn_normals(corners, rows, inverse, placement),
                                   normals.safe_normalize(vectors.rows_times_each(corners[rows], inverse[placement])))
+
+
+def test_batches_number_their_triangles_past_the_ones_before_and_leave_the_scenes_arrays_as_they_were(monkeypatch):
+    """A batch of one mesh placed once reads the scene's own arrays uncopied (_place_copies); the batches after the
+    first offset their triangles past the vertices placed before, in a new array, never in the scene's."""
+    import core.geometry.geometry as geometry_module
+    monkeypatch.setattr(geometry_module, "BATCH_TRIANGLES", 1)          # one mesh a batch
+    scene = Scene(camera=Camera.look_at((0.0, -9.0, 5.0), (0.0, 0.0, 0.0)))
+    scene.add_material((0.7, 0.7, 0.7))
+    for index in range(3):
+        scene.meshes.append(primitives.uv_sphere(0.5, 8, 5, smooth=True))
+        M = np.eye(4)
+        M[:3, 3] = (2.0 * index, 0.0, 0.0)
+        scene.instances.append(Instance(index, M, None, f"Sphere {index}"))
+    before = [(m.vertices.copy(), m.triangles.copy(), m.corner_normals.copy()) for m in scene.meshes]
+    geometry = build_geometry(scene, np.zeros(3), COPY)
+    for mesh, (vertices, triangles, corners) in zip(scene.meshes, before):
+        np.testing.assert_array_equal(mesh.vertices, vertices)
+        np.testing.assert_array_equal(mesh.triangles, triangles)
+        np.testing.assert_array_equal(mesh.corner_normals, corners)
+    start, first_vertex = 0, 0
+    for index, mesh in enumerate(scene.meshes):
+        rows = slice(start, start + len(mesh.triangles))
+        np.testing.assert_array_equal(geometry.triangles[rows], mesh.triangles + first_vertex)
+        np.testing.assert_array_equal(geometry.vertices[geometry.triangles[rows]],
+                                      (mesh.vertices[mesh.triangles] + (2.0 * index, 0.0, 0.0)).astype(np.float32))
+        start += len(mesh.triangles)
+        first_vertex += len(mesh.vertices)
+
+
+def test_placing_a_smooth_mesh_holds_under_three_float64_copies_of_its_corner_normals_at_once():
+    """build_geometry's arrays at their peak (numpy's allocations, tracemalloc), placing one smooth mesh: its corner
+    normals are turned into one float64 array and rounded to float32 before the triangles are kept, and the batch's
+    float64 arrays go before the tables are joined, so the peak stays under 3 x 72 bytes a triangle (the scene's own
+    arrays not counted; it was about 4 x, 286 bytes, with a copy of the mesh's normals made before joining them and
+    a float64 copy of the kept ones)."""
+    import tracemalloc
+    from core.native import library
+    if not library.available():
+        pytest.skip("the compiled kernels turn the normals in one pass; numpy's reference makes temporaries")
+    scene = Scene(camera=Camera.look_at((0.0, -9.0, 5.0), (0.0, 0.0, 0.0)))
+    scene.add_material((0.7, 0.7, 0.7))
+    mesh = primitives.uv_sphere(1.0, 200, 100, smooth=True)
+    scene.meshes.append(mesh)
+    M = np.diag([2.0, 1.0, 0.5, 1.0])
+    scene.instances.append(Instance(0, M, None, "Sphere"))
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        geometry = build_geometry(scene, np.zeros(3), COPY)
+        peak = tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+    assert len(geometry.triangles) == len(mesh.triangles)
+    assert peak < 3 * mesh.corner_normals.nbytes
+
+
+def test_embree_reads_the_geometrys_own_points_and_triangles_in_place():
+    """The placed points and triangles are the leading rows of the padded buffers Embree shares (with_spare_row):
+    the tracer holds no second copy of them, and its buffers' spare rows are zero."""
+    scene, _ = many_meshes(count=6)
+    geometry = build_geometry(scene, np.zeros(3), COPY)
+    if not geometry.tracer.shared:
+        pytest.skip("Embree's buffers cannot be shared here (embree_buffers.scene_handles)")
+    points, indices = geometry.tracer._buffers[:2]
+    assert points.shape == (len(geometry.vertices) + 1, 3) and indices.shape == (len(geometry.triangles) + 1, 3)
+    assert np.shares_memory(points, geometry.vertices) and np.shares_memory(indices, geometry.triangles)
+    assert not points[-1].any() and not indices[-1].any()
+    np.testing.assert_array_equal(indices[:-1], geometry.triangles)
+
+
+def test_a_mesh_keeps_float32_corner_normals_and_places_them_as_their_float64_widening():
+    """Blender's corner normals are float32: a Mesh keeps them so (half the memory of float64), and the placed
+    geometry, copied or instanced, is bit for bit that of the same normals widened to float64."""
+    from core.geometry.instancing import instance_triangles
+    scene, matrices = many_meshes(count=6)
+    for index, M in enumerate(matrices):                            # each mesh twice: instanced when asked
+        moved = M.copy()
+        moved[:3, 3] += (0.5, 0.25, -1.0)
+        scene.instances.append(Instance(index, moved, np.array([index % 3, (index + 1) % 3]), f"Copy {index}"))
+    wide = Scene(camera=scene.camera, materials=scene.materials, instances=scene.instances,
+                 meshes=[Mesh(m.vertices, m.triangles, smooth=m.smooth, material_indices=m.material_indices,
+                              corner_normals=None if m.corner_normals is None
+                              else m.corner_normals.astype(np.float32).astype(np.float64)) for m in scene.meshes])
+    narrow = Scene(camera=scene.camera, materials=scene.materials, instances=scene.instances,
+                   meshes=[Mesh(m.vertices, m.triangles, smooth=m.smooth, material_indices=m.material_indices,
+                                corner_normals=None if m.corner_normals is None
+                                else m.corner_normals.astype(np.float32)) for m in scene.meshes])
+    assert narrow.meshes[0].corner_normals.dtype == np.float32 and wide.meshes[0].corner_normals.dtype == np.float64
+    for triangles in (COPY, instance_triangles("always")):
+        a, b = build_geometry(wide, np.zeros(3), triangles), build_geometry(narrow, np.zeros(3), triangles)
+        np.testing.assert_array_equal(a.corner_normals, b.corner_normals)
+        np.testing.assert_array_equal(a.face_normals, b.face_normals)
+        assert len(a.instanced) == len(b.instanced) == (6 if triangles == 0 else 0)
+        for x, y in zip(a.instanced, b.instanced):
+            np.testing.assert_array_equal(x.corner_normals, y.corner_normals)

@@ -111,3 +111,25 @@ def test_a_warm_heap_is_released_only_after_the_idle_time(monkeypatch):
     monkeypatch.setattr(memory, "_idle_since", memory._idle_since - 61.0)
     assert memory.release_if_idle(60.0) and not memory.is_warm()
     assert calls[-1] == ("trim", 0)
+
+
+def test_preparing_a_large_geometry_hands_the_heaps_free_pages_back_and_a_small_one_keeps_them(monkeypatch):
+    """render.prepare hands the heap's free pages back (malloc_trim, hand_back_free) once it has built a geometry of
+    HAND_BACK_TRIANGLES copied triangles or more, and touches nothing below that (a small scene keeps the warm heap);
+    the allocator's thresholds are left as they are either way."""
+    from conftest import ortho_down
+    from core import render
+    from core.geometry import primitives
+    from core.scene import RenderSettings, Scene
+    scene = Scene(camera=ortho_down(height=3.0))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.box((1.0, 1.0, 1.0)), materials=[0])
+    calls = fake_libc(monkeypatch)
+    render.prepare(scene, RenderSettings(width=4, height=4, samples=1))
+    assert calls == []
+    monkeypatch.setattr(render, "HAND_BACK_TRIANGLES", 13)                      # one more than the box's triangles
+    render.prepare(scene, RenderSettings(width=4, height=4, samples=1))
+    assert calls == []
+    monkeypatch.setattr(render, "HAND_BACK_TRIANGLES", 12)
+    render.prepare(scene, RenderSettings(width=4, height=4, samples=1))
+    assert calls == [("trim", 0)]

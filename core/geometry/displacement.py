@@ -91,7 +91,8 @@ def displace_mesh(mesh: Mesh, instance, materials: list, warnings: list) -> Mesh
     corner_normals = mesh.corner_normals
     renormal = moves & np.isin(scene_index, [k for k, m in graphs.items() if m.displacement_method == "DISPLACEMENT"])
     if renormal.any():
-        corner_normals = object_corner_normals(mesh) if corner_normals is None else corner_normals.copy()
+        corner_normals = (object_corner_normals(mesh) if corner_normals is None
+                          else np.array(corner_normals, np.float64))        # (a copy, float32 ones widened)
         triangles = mesh.triangles[renormal]
         faces = normals_.face_normals(vertices, triangles).normals
         summed = np.zeros((len(vertices), 3))
@@ -104,7 +105,8 @@ def displace_mesh(mesh: Mesh, instance, materials: list, warnings: list) -> Mesh
     # ATTR_STD_POSITION_UNDISPLACED and ATTR_STD_NORMAL_UNDISPLACED; graph.undisplaced_point).
     attributes = mesh.attributes
     if any(m.displacement_method == "BOTH" for m in graphs.values()):
-        before = mesh.corner_normals if mesh.corner_normals is not None else object_corner_normals(mesh)
+        before = (np.asarray(mesh.corner_normals, np.float64) if mesh.corner_normals is not None
+                  else object_corner_normals(mesh))
         attributes = {**(mesh.attributes or {}), "undisplaced_position": mesh.vertices[mesh.triangles],
                       "undisplaced_normal": before}
     return dataclasses.replace(mesh, vertices=vertices, corner_normals=corner_normals, attributes=attributes)
@@ -154,8 +156,8 @@ def corner_point(mesh: Mesh, instance, table, triangle: np.ndarray, corner: np.n
     Ng = normals_.safe_normalize(np.cross(dPdu, dPdv))
     if vectors.determinant(linear[None])[0] < 0.0:
         Ng = -Ng
-    smooth_normals = (mesh.corner_normals if mesh.corner_normals is not None
-                      else object_corner_normals(mesh))[triangle, corner]
+    smooth_normals = np.asarray((mesh.corner_normals if mesh.corner_normals is not None
+                                 else object_corner_normals(mesh))[triangle, corner], np.float64)
     N = np.where(mesh.smooth[triangle][:, None], normals_.safe_normalize(smooth_normals @ normal_matrix.T), Ng)
     uv = np.zeros((n, 2))
     uv[corner == 1, 0] = 1.0

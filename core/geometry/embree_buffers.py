@@ -166,11 +166,29 @@ def scene_handles(scene, device) -> Optional[Handles]:
     return handles if owner == handles.device else None
 
 
+def with_spare_row(n: int, dtype) -> np.ndarray:
+    """Return zeros (n, 3) of `dtype` that are the leading rows of an (n + 1, 3) buffer whose last row stays zero:
+    `padded` hands that buffer to Embree as it is instead of copying the array (one table, not two)."""
+    return np.zeros((n + 1, 3), dtype)[:-1]
+
+
 def padded(array: np.ndarray, dtype) -> np.ndarray:
-    """Return a C-contiguous copy of (n, 3) `array` with one spare row, so Embree may read 16 bytes at the last element.
+    """Return a C-contiguous copy of (n, 3) `array` with one spare row, so Embree may read 16 bytes at the last element;
+    or, when `array` is already the leading rows of such a buffer (with_spare_row) of dtype's size, that buffer itself
+    (as dtype: the same bits, as the copy's would be for int32 indices >= 0 read as uint32).
 
     array: (n, 3); returns (n + 1, 3) of dtype, the last row zero.
     """
+    owner = array.base
+    if (isinstance(owner, np.ndarray) and owner.ndim == 2 and owner.shape == (len(array) + 1, 3)
+            and array.shape == (len(array), 3) and owner.flags.c_contiguous and array.flags.c_contiguous
+            and owner.dtype.itemsize == array.dtype.itemsize == np.dtype(dtype).itemsize
+            and owner.dtype.kind == array.dtype.kind
+            and owner.__array_interface__["data"][0] == array.__array_interface__["data"][0]
+            and not owner[-1].any()
+            and (array.dtype == np.dtype(dtype) or (array.dtype.kind == "i" and np.dtype(dtype).kind == "u"
+                                                     and (len(array) == 0 or array.min() >= 0)))):
+        return owner.view(dtype)
     out = np.zeros((len(array) + 1, 3), dtype)
     out[:-1] = array
     return out

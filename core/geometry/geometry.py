@@ -298,10 +298,10 @@ class TriangleData(NamedTuple):
 def _object_corner_normals(mesh, keep: np.ndarray) -> np.ndarray:
     """Return the corner normals of the triangles `keep` in object space, deriving vertex normals if none were given.
 
-    keep: (t,) bool -> (kept, 3, 3) float64
+    keep: (t,) bool -> (kept, 3, 3) float64 (a mesh's float32 normals widened: Mesh.corner_normals)
     """
     if mesh.corner_normals is not None:
-        return vectors.keep_rows(mesh.corner_normals, keep)
+        return vectors.keep_rows(mesh.corner_normals, keep).astype(np.float64, copy=False)
     triangles = vectors.keep_rows(mesh.triangles, keep)
     with np.errstate(invalid="ignore", over="ignore"):
         per_vertex = normals_.vertex_normals(mesh.vertices, triangles, weighting="angle")
@@ -369,27 +369,54 @@ def _triangle_checks(points32: np.ndarray, triangles: np.ndarray, face_normals: 
 
 def _finish_batch(batch: _Batch, vertex_offset: int, counts: dict, parts: dict) -> int:
     """Drop the batch's non-finite and zero-area triangles, append the rest to `parts` (as float32
-    points and triangles offset past those placed so far) and return the new vertex offset."""
+    points and triangles offset past those placed so far) and return the new vertex offset.
+
+    The batch's float64 arrays are let go as soon as their float32 copies are made (the caller keeps
+    no reference to the batch): on a million triangles its corner normals alone are 72 MB."""
     # 1. Face normals from the world points, flipped back for mirrors; bad triangles found.
+    smooth, triangles, corner_normals = batch.smooth, batch.triangles, batch.corner_normals
     with np.errstate(invalid="ignore", over="ignore"):       # NaN and huge vertices are dropped below
-        faces = _face_normals(batch.points, batch.triangles)
+        faces = _face_normals(batch.points, triangles)
         points32 = batch.points.astype(np.float32)
-    face_n = faces.normals * batch.sign[:, None]
-    finite, nondegenerate = _triangle_checks(points32, batch.triangles, face_n, faces.area)
+    face_n = faces.normals
+    face_n *= batch.sign[:, None]
+    material, owner, source = batch.material, batch.owner, batch.source
+    del batch
+    finite, nondegenerate = _triangle_checks(points32, triangles, face_n, faces.area)
     keep = finite & nondegenerate
+    every = bool(keep.all())
     counts["nonfinite"] += int((~finite).sum())
     counts["degenerate"] += int((finite & ~nondegenerate).sum())
-    # 2. Keep the good triangles, and the smooth ones' corner normals.
-    if batch.corner_normals is not None:
-        parts["cn"].append(vectors.keep_rows(batch.corner_normals, keep[batch.smooth]).astype(np.float32))
-    parts["smooth"].append(batch.smooth[keep])
+    # 2. Keep the good triangles, and the smooth ones' corner normals (rounded to float32 first, then
+    #    kept: the same numbers as keeping first, without a second float64 copy).
+    if corner_normals is not None:
+        corner_normals = corner_normals.astype(np.float32)
+        parts["cn"].append(corner_normals if every else vectors.keep_rows(corner_normals, keep[smooth]))
+        del corner_normals
+    parts["smooth"].append(smooth if every else smooth[keep])
     parts["v"].append(points32)
-    parts["t"].append(vectors.keep_rows(batch.triangles, keep) + vertex_offset)
-    parts["n"].append(vectors.keep_rows(face_n, keep))
-    parts["m"].append(batch.material[keep])
-    parts["i"].append(batch.owner[keep])
-    parts["src"].append(batch.source[keep])
+    if every:                                  # (they may be the scene's own: not offset in place)
+        parts["t"].append(triangles + vertex_offset)
+    else:
+        kept = vectors.keep_rows(triangles, keep)
+        kept += vertex_offset
+        parts["t"].append(kept)
+    del triangles
+    parts["n"].append(face_n if every else vectors.keep_rows(face_n, keep))
+    material, owner, source = (material, owner, source) if every else (material[keep], owner[keep], source[keep])
+    parts["m"].append(material)
+    parts["i"].append(owner)
+    parts["src"].append(source)
     return vertex_offset + len(points32)
+
+
+def _joined(parts: dict, key: str, empty: np.ndarray) -> np.ndarray:
+    """Take the list parts[key] out of `parts` and return its arrays joined along the first axis: the one array itself
+    when there is one (the batches' parts are fresh arrays, not views of the scene's), `empty` when there is none."""
+    arrays = parts.pop(key)
+    if not arrays:
+        return empty
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
 
 
 def moves(instance) -> bool:
@@ -595,13 +622,29 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     if counts["missing"] and not cycles_default:
         warnings.append(f"{counts['missing']} triangle(s) have no material and render in the default grey")
 
-    vertices = np.concatenate(parts["v"]) if parts["v"] else np.zeros((0, 3), np.float32)
+    # Each table joined from its batches' parts, which are let go at once (one batch's part is taken as
+    # it is, not copied): they are not kept beside the tables while Embree builds its BVH.
+    # The points and triangles are the leading rows of the buffers Embree reads in place (with_spare_row): the
+    # tracer shares them instead of copying them.
+    joined = _joined(parts, "v", np.zeros((0, 3), np.float32))
+    vertices = embree_buffers.with_spare_row(len(joined), np.float32)
+    vertices[...] = joined
+    del joined
     # Non-finite vertices that no kept triangle uses must not reach Embree either.
-    vertices = np.where(np.isfinite(vertices), vertices, np.float32(0.0))
-    triangles = (np.concatenate(parts["t"]) if parts["t"] else np.zeros((0, 3), np.int64)).astype(np.int32)
-    smooth_mask = np.concatenate(parts["smooth"]) if parts["smooth"] else np.zeros(0, bool)
+    np.copyto(vertices, np.float32(0.0), where=~np.isfinite(vertices))
+    joined = _joined(parts, "t", np.zeros((0, 3), np.int64))
+    triangles = embree_buffers.with_spare_row(len(joined), np.int32)
+    triangles[...] = joined
+    del joined
+    smooth_mask = _joined(parts, "smooth", np.zeros(0, bool))
     smooth_index = np.full(len(triangles), -1, np.int32)
     smooth_index[smooth_mask] = np.arange(int(smooth_mask.sum()), dtype=np.int32)
+    del smooth_mask
+    face_normals = _joined(parts, "n", np.zeros((0, 3)))
+    material = _joined(parts, "m", np.zeros(0, np.int64)).astype(np.int32)
+    corner_normals = _joined(parts, "cn", np.zeros((0, 3, 3), np.float32))
+    instance = _joined(parts, "i", np.zeros(0, np.int32))
+    attribute_row = _joined(parts, "src", np.zeros(0, np.int64)).astype(np.int32)
     # Instanced triangles are numbered after the copied ones.
     first_prim = len(triangles)
     for record in instanced:
@@ -611,17 +654,17 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         origin=origin,
         vertices=vertices,
         triangles=triangles,
-        face_normals=np.concatenate(parts["n"]) if parts["n"] else np.zeros((0, 3)),
-        material=(np.concatenate(parts["m"]) if parts["m"] else np.zeros(0, np.int64)).astype(np.int32),
+        face_normals=face_normals,
+        material=material,
         smooth_index=smooth_index,
-        corner_normals=np.concatenate(parts["cn"]) if parts["cn"] else np.zeros((0, 3, 3), np.float32),
+        corner_normals=corner_normals,
         tracer=Tracer(vertices, triangles, instanced=instanced),
         warnings=warnings,
-        instance=np.concatenate(parts["i"]) if parts["i"] else np.zeros(0, np.int32),
+        instance=instance,
         instanced=instanced,
         attributes=attributes,
         attribute_layout=layout,
-        attribute_row=(np.concatenate(parts["src"]) if parts["src"] else np.zeros(0, np.int64)).astype(np.int32),
+        attribute_row=attribute_row,
         instance_random=np.array([graph_.object_random(i.name) if i.random is None else float(i.random)
                                   for i in scene.instances], np.float64),
         instance_linear=all_matrices[:, :3, :3].copy(),
@@ -776,8 +819,14 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
     if smooth.any():
         has_smooth = np.array([mesh.smooth.any() for mesh in meshes])
         wanted_rows = np.repeat(has_smooth, T) & in_range
-        values = np.concatenate([_object_corner_normals(mesh, ok) for mesh, ok, wanted
-                                 in zip(meshes, np.split(in_range, np.cumsum(T)[:-1]), has_smooth) if wanted])
+        # (A mesh whose given corner normals are all in range is joined as it is: no copy of it first; float32
+        # ones are widened to float64 as they are joined, Mesh.corner_normals.)
+        given = [mesh.corner_normals if mesh.corner_normals is not None and ok.all()
+                 else _object_corner_normals(mesh, ok) for mesh, ok, wanted
+                 in zip(meshes, np.split(in_range, np.cumsum(T)[:-1]), has_smooth) if wanted]
+        values = (given[0].astype(np.float64, copy=False) if len(given) == 1
+                  else np.concatenate(given, dtype=np.float64))
+        del given
         if len(values) == len(local):               # every row (numpy's scatter costs 0.1 us a row)
             corners = values
         else:

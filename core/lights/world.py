@@ -203,11 +203,13 @@ def reference_map(values: np.ndarray, sines: np.ndarray, w: int, h: int) -> tupl
     return (f, *running_sums(f))
 
 
-def running_sums(f: np.ndarray) -> tuple:
+def running_sums(f: np.ndarray, columns: Optional[np.ndarray] = None) -> tuple:
     """Each row's running sums of the map `f` (h, w) float64: (columns (h, w + 1) from 0, normalised to end at 1 where
-    the row has any; totals (h,): each row's sum)."""
+    the row has any; totals (h,): each row's sum). `columns`: an (h, w + 1) float64 array to write them into (its
+    old values are overwritten), else a new one."""
     h, w = f.shape
-    columns = np.empty((h, w + 1))
+    if columns is None:
+        columns = np.empty((h, w + 1))
     columns[:, 0] = 0.0
     np.cumsum(f, axis=1, out=columns[:, 1:])
     totals = columns[:, -1].copy()
@@ -215,7 +217,7 @@ def running_sums(f: np.ndarray) -> tuple:
     return columns, totals
 
 
-def compensated_map(f: np.ndarray, sines: np.ndarray) -> tuple:
+def compensated_map(f: np.ndarray, sines: np.ndarray, columns: Optional[np.ndarray] = None) -> tuple:
     """The importance map `f` (h, w) float64 (radiance x sin(theta), rows' sines `sines` (h,)) less its mean radiance
     over the sphere, floored at 0, with its rows' running sums and totals as reference_map gives them.
 
@@ -226,10 +228,15 @@ def compensated_map(f: np.ndarray, sines: np.ndarray) -> tuple:
     closures meet a world of a few bright lights. It is unbiased only where every light sample has a BSDF ray as
     its MIS partner (render.prepare's `compensate`). The mean is over solid angle: dw = 2 pi^2 sin(theta) du dv, so
     mean(L) = (1 / 4 pi) sum(f) 2 pi^2 / (w h) = (pi / 2) mean(f). A map all at or below its mean (a constant world)
-    comes out all 0: not sampled, found by BSDF rays alone."""
+    comes out all 0: not sampled, found by BSDF rays alone.
+
+    The compensated map is made in `f`'s place, and its running sums in `columns` (h, w + 1) float64 when given (the
+    uncompensated map's, which it replaces): a 4096 x 2048 map is 64 MiB an array, and the map's memory stays that of
+    one map and one table of sums instead of three maps and two tables at once (the same numbers)."""
     delta = 0.5 * math.pi * float(f.mean())
-    f = np.maximum(f - delta * sines[:, None], 0.0)
-    return (f, *running_sums(f))
+    f -= delta * sines[:, None]
+    np.maximum(f, 0.0, out=f)
+    return (f, *running_sums(f, columns))
 
 
 WorldMapArgs = schema.function("primer_world_map", "world_map_rows", schema.record("WorldMapArgs", "primer_world_map's arguments: rows row_start .. row_end - 1 of a world's importance map (world.reference_map's numbers).", [
@@ -346,13 +353,14 @@ class WorldLight(Light):
         pixels = np.abs(np.asarray(world.image[..., :3], np.float64))
         pixels = np.where(np.isfinite(pixels), pixels, 0.0)
         mean = (pixels[..., 0] + pixels[..., 1] + pixels[..., 2]) * (abs(world.strength) / 3.0)
+        del pixels                                   # (not kept beside the map's arrays)
         sines = np.sin(math.pi * ((np.arange(h) + 0.5) / h))
         if kernels == "compiled" and library.available():
             f, columns, totals = compiled_map(mean, sines, w, h, compensate)
         else:
             f, columns, totals = reference_map(mean, sines, w, h)
             if compensate:
-                f, columns, totals = compensated_map(f, sines)
+                f, columns, totals = compensated_map(f, sines, columns)     # in the uncompensated map's place
         row_sums = totals / w
         total = row_sums.sum() / h
         if not total > 0.0:

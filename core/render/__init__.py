@@ -138,6 +138,11 @@ def region_pixels(settings: RenderSettings) -> np.ndarray:
     return (np.arange(y0, y1, dtype=np.int64)[:, None] * W + np.arange(x0, x1, dtype=np.int64)).reshape(-1)
 
 
+# Placing at least this many copied triangles frees enough temporaries (about 300 bytes a triangle) that prepare hands
+# the heap's free pages back once the geometry is built.
+HAND_BACK_TRIANGLES = 1 << 18
+
+
 def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeometry] = None,
             warnings: Optional[list] = None, light_numbers: Optional[np.ndarray] = None) -> Context:
     """Validate and return what every chunk reads: geometry, camera-relative lights, materials.
@@ -158,6 +163,11 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     if geometry is None:
         geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing),
                                   motion_blur=not blur_because)
+        # A large build's freed temporaries go back to the system before the world's map and the film are made, so
+        # the render's peak is not theirs on top of those (core/memory.py hand_back_free). Not after a small one:
+        # there the warm heap's pages are worth more than the memory (core/memory.py).
+        if len(geometry.triangles) >= HAND_BACK_TRIANGLES:
+            memory.hand_back_free()
     warnings.extend(w for w in geometry.warnings if w not in warnings)
     lamps = lights_.usable(scene.lights, warnings)
     lights = [lights_.linking.found_by_bounces(light.moved(geometry.origin)) for light in lamps]

@@ -31,7 +31,9 @@ class Mesh:
     triangles:        (t, 3) int64 vertex indices, counter-clockwise seen from the front
     smooth:           (t,) bool, True where the triangle is shaded with interpolated normals
     corner_normals:   (t, 3, 3) float64 unit normal per triangle corner, or None to
-                      derive vertex normals from the geometry (`core.normals.vertex_normals`)
+                      derive vertex normals from the geometry (`core.normals.vertex_normals`); float32 when given
+                      float32 (Blender's own normals: half the memory, 36 bytes a triangle), which its readers
+                      widen to float64 (exactly: the numbers are those of a float64 copy)
     material_indices: (t,) int64 index into the instance's material list
     attributes:       per-corner data the materials read (core/materials/graph.py): name -> (t, 3, w)
     curve_info:       the Curves Info node's values per vertex of curves made tubes (core/geometry/curves.py
@@ -61,7 +63,9 @@ class Mesh:
         self.material_indices = (np.zeros(t, np.int64) if self.material_indices is None
                                  else np.broadcast_to(np.asarray(self.material_indices, np.int64), (t,)).copy())
         if self.corner_normals is not None:
-            self.corner_normals = np.asarray(self.corner_normals, dtype=np.float64).reshape(t, 3, 3)
+            given = np.asarray(self.corner_normals)
+            kept = np.float32 if given.dtype == np.float32 else np.float64
+            self.corner_normals = given.astype(kept, copy=False).reshape(t, 3, 3)
 
 
 @dataclass(slots=True)
