@@ -1659,7 +1659,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
     final = depsgraph.mode == "RENDER"
     materials_.begin_export(scene.frame_current, depsgraph.view_layer, materials_.texture_limit_of(scene, final),
-                            materials_.texture_resolution_of(scene, final))
+                            materials_.texture_resolution_of(scene, final), materials_.half_rounding_now())
     # What the scene asks of Cycles that Primer does not render, said once (addon/unmodelled.py).
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
     world_object = rendered_world(scene, depsgraph.view_layer, depsgraph)

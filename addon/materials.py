@@ -900,7 +900,8 @@ def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = N
             reader.warn(node, f"{what} has {int(bad.any(axis=-1).sum())} NaN or infinite pixel(s); Primer reads "
                               "them as 0")
             pixels = np.where(bad, pixels.dtype.type(0.0), pixels)
-    pixels = textures_.limited(pixels, *_TEXTURE_LIMIT)     # (Simplify's Texture Limit and Resolution, as Cycles)
+    # (Simplify's Texture Limit and Resolution, as Cycles; a half image's means made half as this Blender's Cycles)
+    pixels = textures_.limited(pixels, *_TEXTURE_LIMIT, _HALF_ROUNDING[0] or half_rounding_now())
     return textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
 
 
@@ -958,11 +959,13 @@ _DECODED_NOW: dict = {}
 _DECODED_BEFORE: dict = {}
 
 
-def begin_export(frame: int = 1, view_layer=None, texture_limit: int = 0, texture_resolution: float = 1.0) -> None:
+def begin_export(frame: int = 1, view_layer=None, texture_limit: int = 0, texture_resolution: float = 1.0,
+                 half_rounding: textures_.HalfRounding = None) -> None:
     """Forget the images read by an earlier export (a render reads each image once) and the Object and Instancer
     attributes its materials read; read sequences and movies at the scene's `frame`, View Layer attributes from
     `view_layer` (None: the context's), and images under `texture_limit` (Simplify's, texture_limit_of; 0: none)
-    and at `texture_resolution` (Blender 5.2's Simplify > Texture Resolution, texture_resolution_of; 1: full)."""
+    and at `texture_resolution` (Blender 5.2's Simplify > Texture Resolution, texture_resolution_of; 1: full), half
+    floats made as `half_rounding` says (textures.HalfRounding; None: this Blender's Cycles', half_rounding_now)."""
     global _DECODED_BEFORE, _DECODED_NOW
     _IMAGES.clear()
     _ALPHA_READ.clear()
@@ -971,12 +974,21 @@ def begin_export(frame: int = 1, view_layer=None, texture_limit: int = 0, textur
     ATTRIBUTE_NOTES.clear()
     _VIEW_LAYER[0] = view_layer
     _TEXTURE_LIMIT[:] = [int(texture_limit), float(texture_resolution)]
+    _HALF_ROUNDING[0] = half_rounding_now() if half_rounding is None else half_rounding
     set_frame(frame)
+
+
+def half_rounding_now() -> textures_.HalfRounding:
+    """How this Blender's Cycles makes half floats (textures.half_rounding_of bpy.app.version): truncated in 4.2 ..
+    5.0, rounded to nearest even from 5.1 on."""
+    return textures_.half_rounding_of(tuple(bpy.app.version))
 
 
 # The texture size limit and resolution of this export's images (textures.limited), as Cycles' scene params
 # texture_limit and texture_resolution.
 _TEXTURE_LIMIT: list = [0, 1.0]
+# How this export makes half floats (textures.HalfRounding): its images' Texture Limit means and associated alpha.
+_HALF_ROUNDING: list = [None]
 
 
 def texture_limit_of(scene, final: bool) -> int:
@@ -1151,14 +1163,15 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
         if packed is not None:
             data = packed.data
             suffix = os.path.splitext(image.filepath)[1] or "." + image.file_format.lower()
-            return _decoded(("packed", suffix, len(data), hashlib.blake2b(data, digest_size=16).digest(), rule),
+            return _decoded(("packed", suffix, len(data), hashlib.blake2b(data, digest_size=16).digest(), rule,
+                             _HALF_ROUNDING[0]),
                             lambda: _oiio_read_bytes(oiio, data, suffix, rule))
         path = bpy.path.abspath(image.filepath, library=image.library)
         try:
             stat = os.stat(path)
         except OSError:
             return _oiio_read_file(oiio, path, rule)    # (no such file: its error)
-        return _decoded(("file", os.path.abspath(path), stat.st_mtime_ns, stat.st_size, rule),
+        return _decoded(("file", os.path.abspath(path), stat.st_mtime_ns, stat.st_size, rule, _HALF_ROUNDING[0]),
                         lambda: _oiio_read_file(oiio, path, rule))
     if image.source == "FILE" and packed is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
@@ -1271,12 +1284,13 @@ def stored_straight(spec, format_name: str) -> bool:
 def with_alpha_rule(pixels: np.ndarray, rule: str, straight: bool) -> np.ndarray:
     """An image file's pixels (h, w, c) as stored, `straight` when the file keeps its colours unassociated
     (stored_straight), as Cycles keeps them for `rule` (alpha_rule): "associate" multiplies a straight file's
-    colours by their alpha (textures.associated: 4 channels only), "ignore" sets the alpha to 1
-    (textures.alpha_ignored), "straight" leaves them. Pixels with no alpha below 1 are given back untouched."""
+    colours by their alpha (textures.associated: 4 channels only; half floats made half as this export's
+    _HALF_ROUNDING says), "ignore" sets the alpha to 1 (textures.alpha_ignored), "straight" leaves them. Pixels with
+    no alpha below 1 are given back untouched."""
     if rule == "ignore":
         return textures_.alpha_ignored(pixels)
     if rule == "associate" and straight:
-        return textures_.associated(pixels)
+        return textures_.associated(pixels, _HALF_ROUNDING[0] or half_rounding_now())
     return pixels
 
 

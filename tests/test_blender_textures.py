@@ -396,11 +396,58 @@ def test_two_normal_map_nodes_reading_one_map_count_as_the_same_normal():
     assert not same_graph(normal_map(image, 1.0), normal_map(textures.Image(np.zeros((2, 2, 3), np.uint8)), 1.0))
 
 
+HALF = PRELUDE + """
+import OpenImageIO as oiio
+# A 256 x 256 half EXR of 2 x 2 blocks (1, 1 + 2^-10 three times) on an emitting plane, under Simplify > Texture
+# Limit 128: exported, the image is its means, 1 + 3 x 2^-12 made half.
+step = 2.0 ** -10
+texels = np.tile(np.array([[1.0, 1.0 + step], [1.0 + step, 1.0 + step]]), (128, 128))
+path = os.path.join(os.getcwd(), "blocks.exr")
+out = oiio.ImageOutput.create(path)
+out.open(path, oiio.ImageSpec(256, 256, 3, oiio.HALF))
+out.write_image(np.repeat(texels[:, :, None], 3, axis=2).astype(np.float16))
+out.close()
+mat, tree, output = material("Blocks")
+node = tree.nodes.new("ShaderNodeTexImage")
+node.image = bpy.data.images.load(path)
+node.image.colorspace_settings.name = "Linear Rec.709"
+emission = tree.nodes.new("ShaderNodeEmission")
+tree.links.new(node.outputs["Color"], emission.inputs["Color"])
+tree.links.new(emission.outputs[0], output.inputs["Surface"])
+plane("Blocks", mat)
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+scene.camera = camera
+scene.render.use_simplify = True
+scene.cycles.texture_limit = scene.cycles.texture_limit_render = "128"    # (a viewport depsgraph reads the first)
+exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+values = []
+for material in exported.scene.materials:
+    for entry in material.nodes:
+        node = getattr(entry[2].get("emission"), "node", None)
+        while node is not None and node.kind != "IMAGE":
+            node = next((v.node for v in node.inputs.values() if isinstance(v, graph.Link)), None)
+        if node is not None:
+            values.append((list(node.props["image"].pixels.shape), sorted(set(node.props["image"].rgba()[..., :3]
+                                                                               .astype(float).ravel().tolist()))))
+report(version=list(bpy.app.version), values=values)
+"""
+
+
+def test_a_half_image_under_a_texture_limit_keeps_the_half_this_blenders_cycles_makes(results):
+    """The means 1 + 3 x 2^-12 of a half EXR's 2 x 2 blocks under Texture Limit 128 are made half as the running
+    Blender's Cycles makes them (the add-on's rule from bpy.app.version): truncated to 1 in 4.2 .. 5.0, rounded to
+    1 + 2^-10 from 5.1 (measured: Cycles 5.0.1 renders such an image 1.0, Cycles 5.2.3 1.0009766)."""
+    result = results["half"]
+    expected = 1.0 + 2.0 ** -10 if tuple(result["version"][:2]) >= (5, 1) else 1.0
+    assert result["values"] == [[[128, 128, 3], [expected]]]
+
+
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):
-    """The four scripts' reports, from one Blender process (tests/one_process.py; one start for the file's tests, not
-    four): {"images", "random", "stored", "odd": its report}."""
+    """The five scripts' reports, from one Blender process (tests/one_process.py; one start for the file's tests, not
+    five): {"images", "random", "stored", "odd", "half": its report}."""
     tools = os.path.join(ROOT, "tools")
     sources = {"images": IMAGES.format(tools=tools), "random": RANDOM.format(tools=tools),
-               "stored": STORED.format(tools=tools), "odd": ODD.format(tools=tools)}
+               "stored": STORED.format(tools=tools), "odd": ODD.format(tools=tools), "half": HALF.format(tools=tools)}
     return run_bpy(RUNNER.format(sources=sources), str(tmp_path_factory.mktemp("textures")))["results"]

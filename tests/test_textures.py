@@ -781,15 +781,58 @@ def test_a_byte_mean_halfway_between_two_bytes_rounds_as_cycles_float32_arithmet
 
 
 def test_a_half_float_image_keeps_its_means_rounded_to_half_as_cycles():
-    """A half-float image (float16, as Cycles keeps a half EXR) shrunk by 2: the mean 1 + 2^-12 of a block
-    (1, 1, 1, 1 + 2^-10) is no half, rounded to the nearest, 1; 1 + 3 x 2^-12 rounds to 1 + 2^-10 (measured: a
-    64 x 64 half EXR at Texture Resolution 0.5 renders as Cycles 5.2.3's to 0, where float32 means were 4.9e-4 off,
-    half's precision); a float32 image keeps its float32 mean."""
+    """A half-float image (float16, as Cycles keeps a half EXR) shrunk by 2 in Blender 5.1+ (NEAREST_EVEN): the mean
+    1 + 2^-12 of a block (1, 1, 1, 1 + 2^-10) is no half, rounded to the nearest, 1; 1 + 3 x 2^-12 rounds to
+    1 + 2^-10 (measured: a 64 x 64 half EXR at Texture Resolution 0.5 renders as Cycles 5.2.3's to 0, where float32
+    means were 4.9e-4 off, half's precision); a float32 image keeps its float32 mean."""
     step = 2.0 ** -10
     half = np.array([[1.0, 1.0 + step, 1.0, 1.0 + 3 * step], [1.0, 1.0, 1.0, 1.0]], np.float16)[:, :, None]
-    shrunk = textures.limited(half, 0, 0.5)
+    shrunk = textures.limited(half, 0, 0.5, textures.HalfRounding.NEAREST_EVEN)
     assert shrunk.dtype == np.float16 and shrunk[0, :, 0].tolist() == [1.0, 1.0 + step]
     assert textures.limited(half.astype(np.float32), 0, 0.5)[0, 0, 0] == np.float32(1.0 + step / 4)
+
+
+# 2 x 2 blocks of halves whose float32 mean is no half (or a subnormal one): (block, mean, Cycles 4.2 .. 5.0's half of
+# it, truncated, subnormals flushed; Cycles 5.1+'s, the nearest).
+HALF_BLOCKS = (
+    ((1.0, 1.0 + 2.0 ** -10, 1.0 + 2.0 ** -10, 1.0 + 2.0 ** -10), 1.0 + 3.0 * 2.0 ** -12, 1.0, 1.0 + 2.0 ** -10),
+    ((2.0 ** -14, 0.0, 0.0, 0.0), 2.0 ** -16, 0.0, 2.0 ** -16),                  # a subnormal mean (half's step 2^-24)
+    ((65504.0, 65504.0, 65504.0, 65472.0), 65496.0, 65472.0, 65504.0),           # 3/4 of a step (32) above 65472
+)
+
+
+@pytest.mark.parametrize("block, mean, truncated, rounded", HALF_BLOCKS)
+def test_half_float_means_are_truncated_before_blender_5_1_and_rounded_to_nearest_even_after(block, mean, truncated,
+                                                                                            rounded):
+    """A 2 x 2 block of halves shrunk by Simplify to its mean: Cycles 4.2 .. 5.0 (TRUNCATED) keeps the half below it,
+    with subnormals flushed to 0 (1 + 3 x 2^-12 -> 1, 2^-16 -> 0, 65496 -> 65472); Cycles 5.1+ (NEAREST_EVEN) the
+    nearest (1 + 2^-10, 2^-16 kept, 65504)."""
+    pixels = np.array(block, np.float16).reshape(2, 2, 1)
+    assert np.float32(sum(block)) * np.float32(0.25) == np.float32(mean)
+    made = {rule: textures.limited(pixels, 0, 0.5, rule) for rule in textures.HalfRounding}
+    assert all(out.dtype == np.float16 and out.shape == (1, 1, 1) for out in made.values())
+    assert float(made[textures.HalfRounding.TRUNCATED][0, 0, 0]) == truncated
+    assert float(made[textures.HalfRounding.NEAREST_EVEN][0, 0, 0]) == rounded
+
+
+def test_half_floats_are_not_made_without_a_rule():
+    """A half image shrunk or associated without saying which Cycles' rule makes its halves is an error, never one
+    Blender's rounding silently (bytes, shorts and floats need none)."""
+    halves = np.ones((2, 2, 4), np.float16) * np.float16(0.5)
+    with pytest.raises(ValueError):
+        textures.limited(halves, 0, 0.5)
+    with pytest.raises(ValueError):
+        textures.associated(halves)
+    assert textures.limited(np.zeros((2, 2, 1), np.uint8), 0, 0.5).dtype == np.uint8
+
+
+@pytest.mark.parametrize("version, rounding", [((4, 2, 0), "TRUNCATED"), ((5, 0, 1), "TRUNCATED"),
+                                               ((5, 1, 0), "NEAREST_EVEN"), ((5, 2, 3), "NEAREST_EVEN"),
+                                               ((6, 0, 0), "NEAREST_EVEN")])
+def test_the_half_rule_follows_the_blender_version_cycles_changed_it_in(version, rounding):
+    """Cycles' float_to_half_image truncates up to Blender 5.0 and rounds to nearest even from 5.1 (commit
+    b5c7dd95c): the add-on's rule (materials.half_rounding_now) is half_rounding_of(bpy.app.version)."""
+    assert textures.half_rounding_of(version) is textures.HalfRounding[rounding]
 
 
 def test_a_constant_colour_ramp_changes_colour_at_the_first_of_cycles_257_table_points_past_its_stop():
@@ -839,17 +882,50 @@ def test_cycles_associates_straight_alpha_in_the_stored_type_truncating_bytes_an
     assert textures.associated(grey_alpha) is grey_alpha and textures.associated(opaque) is opaque
 
 
-def test_a_half_float_product_is_truncated_to_half_as_cycles_float_to_half_image():
-    """Half floats are associated as the float32 product cut to half by truncating its mantissa: 1 + 3/4096 becomes
-    1 (rounding would give 1 + 1/1024); below 2^-14 is 0; above 65504 is 65504."""
-    values = np.array([1.0 + 3.0 / 4096.0, -(1.0 + 3.0 / 4096.0), 2.0 ** -15, 1e6, 0.5], np.float32)
+def test_cycles_makes_halves_by_truncation_up_to_5_0_and_to_nearest_even_from_5_1():
+    """float_to_half_image, CPU: Blender 4.2 .. 5.0 truncates the mantissa (1 + 3/4096 -> 1; 65500 -> 65472),
+    flushes magnitudes below 2^-14 to 0 and clamps 65536 and above (inf, NaN too) to 65504, signs kept; 5.1+ clamps
+    to +-65504 (NaN, failing Cycles' max, to -65504) and rounds to nearest, ties to even (1 + 3/4096 -> 1 + 1/1024,
+    65500 -> 65504, 1 + 1/2048 -> 1), subnormals kept in steps of 2^-24."""
+    values = np.array([1.0 + 3.0 / 4096.0, -(1.0 + 3.0 / 4096.0), 2.0 ** -15, 3.0 * 2.0 ** -24, 1e6, 65500.0,
+                       np.inf, -np.inf, np.nan, 1.0 + 2.0 ** -11, 0.5], np.float32)
     np.testing.assert_array_equal(textures.half_truncated(values).astype(np.float64),
-                                  [1.0, -1.0, 0.0, 65504.0, 0.5])
-    half = np.array([[[1.0 + 1.0 / 1024.0, 0.5, 0.0, 0.75]]], np.float16)
-    out = textures.associated(half)
-    assert out.dtype == np.float16
-    # 0.75 + 1.5 x 2^-11 (half's step there): cut to 0.75 + 2^-11, where rounding would give 0.75 + 2^-10
-    np.testing.assert_array_equal(out[0, 0].astype(np.float64), [0.75 + 2.0 ** -11, 0.375, 0.0, 0.75])
+                                  [1.0, -1.0, 0.0, 0.0, 65504.0, 65472.0, 65504.0, -65504.0, 65504.0, 1.0, 0.5])
+    np.testing.assert_array_equal(textures.half_rounded(values).astype(np.float64),
+                                  [1.0 + 2.0 ** -10, -(1.0 + 2.0 ** -10), 2.0 ** -15, 3.0 * 2.0 ** -24, 65504.0,
+                                   65504.0, 65504.0, -65504.0, -65504.0, 1.0, 0.5])
+    for rounding, make in ((textures.HalfRounding.TRUNCATED, textures.half_truncated),
+                           (textures.HalfRounding.NEAREST_EVEN, textures.half_rounded)):
+        np.testing.assert_array_equal(textures.half_of(values, rounding).view(np.uint16), make(values).view(np.uint16))
+
+
+def test_cycles_5_0_reads_a_zero_half_as_2_to_the_minus_15_and_5_1_exactly():
+    """half_to_float_image, CPU: Blender 4.2 .. 5.0 only moves the exponent's bias, so a zero half reads 2^-15 (a
+    subnormal 2^-15 (1 + m / 1024)), inf 65536, normal halves exactly; 5.1+ reads every half exactly."""
+    halves = np.array([0.0, -0.0, 2.0 ** -24, 1.5, 65504.0, np.inf], np.float16)
+    np.testing.assert_array_equal(textures.half_widened(halves, textures.HalfRounding.TRUNCATED),
+                                  np.float32([2.0 ** -15, -(2.0 ** -15), 2.0 ** -15 * (1 + 2.0 ** -10), 1.5, 65504.0,
+                                              65536.0]))
+    np.testing.assert_array_equal(textures.half_widened(halves, textures.HalfRounding.NEAREST_EVEN),
+                                  halves.astype(np.float32))
+
+
+def test_a_half_float_product_is_made_half_as_the_running_blenders_cycles():
+    """Half floats are associated as the float32 product of the halves as read, made half by the Blender's rule:
+    (1 + 2^-10) x 0.75 = 0.75 + 1.5 x 2^-11 (half's step there) is cut to 0.75 + 2^-11 up to 5.0 and rounded to
+    0.75 + 2^-10 from 5.1; 2^-10 x 2^-5 = 2^-15 flushed to 0, then kept; colour 4 with alpha 0 is 4 x 2^-15 = 2^-13
+    in 5.0 (its zero alpha read as 2^-15), 0 from 5.1."""
+    half = np.array([[[1.0 + 1.0 / 1024.0, 0.5, 0.0, 0.75], [2.0 ** -10, 1.0, 0.0, 2.0 ** -5],
+                      [4.0, 0.5, 1.0, 0.0]]], np.float16)
+    truncated = textures.associated(half, textures.HalfRounding.TRUNCATED)
+    rounded = textures.associated(half, textures.HalfRounding.NEAREST_EVEN)
+    assert truncated.dtype == rounded.dtype == np.float16
+    np.testing.assert_array_equal(truncated[0].astype(np.float64),
+                                  [[0.75 + 2.0 ** -11, 0.375, 0.0, 0.75], [0.0, 2.0 ** -5, 0.0, 2.0 ** -5],
+                                   [2.0 ** -13, 0.0, 0.0, 0.0]])
+    np.testing.assert_array_equal(rounded[0].astype(np.float64),
+                                  [[0.75 + 2.0 ** -10, 0.375, 0.0, 0.75], [2.0 ** -15, 2.0 ** -5, 0.0, 2.0 ** -5],
+                                   [0.0, 0.0, 0.0, 0.0]])
 
 
 def test_alpha_none_sets_the_alpha_to_one_and_keeps_the_colours():

@@ -24,6 +24,7 @@ number, it is Cycles' missing image, magenta. A plain image has no tiles, and it
 """
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -88,7 +89,7 @@ def reduction(height: int, width: int, limit: int = 0, resolution: float = 1.0) 
     return float(np.float32(2.0) ** np.floor(np.log2(np.float32(scale))))
 
 
-def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarray:
+def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0, rounding: HalfRounding = None) -> np.ndarray:
     """An image's pixels (h, w, c), bottom row first, as Cycles keeps them under Simplify > Texture Limit `limit`
     (0: none) and Blender 5.2's Texture Resolution `resolution` (1: none): shrunk by `reduction` (scale 2^-n) with
     util_image_resize_pixels' box filter, each texel the mean of its k x k block (k = 2^n) of the stored values, the
@@ -96,10 +97,8 @@ def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarr
     Cycles' own float32 arithmetic: integers read as value x (1 / 255) (65535; Blender's build turns the division
     into that product: measured, the exact halves of 4 x 4 means then round as Cycles'), summed row by row in
     float32, times 1 / count, rounded back as util_image_cast_from_float rounds them: bytes as Cycles', bit for
-    bit. Half floats (float16, as Cycles keeps a half-float file) are averaged in float32 and rounded back to half as
-    Cycles 5.1+'s float_to_half_image (util/half.h: float_to_half of the mean clamped to +-65504, round to nearest,
-    ties to even, subnormals kept; Cycles 5.0's CPU version truncated the mantissa and flushed subnormals to 0,
-    half_truncated: one half step at most, not followed)."""
+    bit. Half floats (float16, as Cycles keeps a half-float file) are averaged in float32 and made half again as the
+    running Blender's Cycles makes them, `rounding` (HalfRounding, needed for half floats only; half_of)."""
     h, w = pixels.shape[:2]
     scale = reduction(h, w, limit, resolution)
     if scale == 1.0:
@@ -114,8 +113,8 @@ def limited(pixels: np.ndarray, limit: int, resolution: float = 1.0) -> np.ndarr
     blocks = values[:oh * kh, :ow * kw].reshape(oh, kh, ow, kw, -1).transpose(0, 2, 1, 3, 4).reshape(oh, ow, kh * kw, -1)
     total = np.cumsum(blocks, axis=2, dtype=np.float32)[:, :, -1]     # (sequential: Cycles' order, rows then texels)
     mean = (total * (np.float32(1.0) / np.float32(kh * kw))).reshape((oh, ow) + pixels.shape[2:])
-    if pixels.dtype == np.float16:                  # (5.1+'s float_to_half_image: clamped, nearest, ties to even)
-        return np.ascontiguousarray(np.clip(mean, -65504.0, 65504.0).astype(np.float16))
+    if pixels.dtype == np.float16:                  # (Cycles' float_to_half_image, util_image_cast_from_float)
+        return np.ascontiguousarray(half_of(mean, rounding))
     if top is None:
         return np.ascontiguousarray(mean)
     scaled = np.float32(top) * mean + np.float32(0.5)
@@ -351,10 +350,60 @@ def has_alpha_below_one(pixels: np.ndarray) -> bool:
     return k >= 0 and bool((pixels[..., k] < opaque_value(pixels.dtype)).any())
 
 
+class HalfRounding(enum.Enum):
+    """How the running Blender's Cycles makes a float32 half (util/half.h float_to_half_image, CPU), which Cycles
+    does for half-float images shrunk by Simplify (limited) and associated with their alpha (associated). Cycles
+    changed it in Blender 5.1 (commit b5c7dd95c, "Half float denormals and optimizations"); the add-on picks one
+    per render from bpy.app.version (half_rounding_of)."""
+
+    TRUNCATED = "truncated"         # Blender 4.2 .. 5.0: half_truncated
+    NEAREST_EVEN = "nearest even"   # Blender 5.1 and later: half_rounded
+
+
+def half_rounding_of(version: tuple) -> HalfRounding:
+    """The HalfRounding of Cycles in Blender `version` (a tuple such as bpy.app.version, (5, 0, 1)): NEAREST_EVEN
+    from 5.1 on, TRUNCATED before."""
+    return HalfRounding.NEAREST_EVEN if tuple(version)[:2] >= (5, 1) else HalfRounding.TRUNCATED
+
+
+def half_of(values: np.ndarray, rounding: HalfRounding) -> np.ndarray:
+    """float32 values (...) made half -> (...) float16 as `rounding` says (half_truncated or half_rounded);
+    ValueError without a rounding (a half made by a silent guess would be Cycles' of one Blender only)."""
+    if rounding is HalfRounding.TRUNCATED:
+        return half_truncated(values)
+    if rounding is HalfRounding.NEAREST_EVEN:
+        return half_rounded(values)
+    raise ValueError(f"half floats need a HalfRounding (Cycles' differs between Blender versions), not {rounding!r}")
+
+
+def half_rounded(values: np.ndarray) -> np.ndarray:
+    """float32 values (...) as halves the way Blender 5.1+'s Cycles float_to_half_image makes them: clamped to
+    -65504 .. 65504 by Cycles' clamp, min(max(f, -65504), 65504) (inf to +-65504, and NaN, which fails every
+    comparison, to -65504), then rounded to the nearest half, ties to even, subnormals (below 2^-14, steps of 2^-24)
+    kept, the sign kept (-0 stays -0) -> (...) float16."""
+    f = np.asarray(values, np.float32)
+    f = np.where(f > np.float32(-65504.0), f, np.float32(-65504.0))
+    f = np.where(f < np.float32(65504.0), f, np.float32(65504.0))
+    return f.astype(np.float16)                     # (numpy's conversion: nearest, ties to even, subnormals kept)
+
+
+def half_widened(halves: np.ndarray, rounding: HalfRounding) -> np.ndarray:
+    """float16 halves (...) read as float32 (...) the way the Cycles of `rounding` reads them on the CPU
+    (half_to_float_image): exactly from Blender 5.1 on (NEAREST_EVEN); in 4.2 .. 5.0 (TRUNCATED) by moving the
+    exponent's bias alone, exact for normal halves, but a zero or subnormal half (exponent 0) read as
+    2^-15 (1 + m / 1024) with its sign (0 as 3.05e-5), and inf, NaN as 65536 (1 + m / 1024)."""
+    h = np.ascontiguousarray(halves, np.float16)
+    if rounding is not HalfRounding.TRUNCATED:
+        return h.astype(np.float32)
+    u = h.view(np.uint16).astype(np.uint32)
+    bits = ((u & 0x8000) << 16) | (((u & 0x7C00) + 0x1C000) << 13) | ((u & 0x03FF) << 13)
+    return bits.astype(np.uint32).view(np.float32)
+
+
 def half_truncated(values: np.ndarray) -> np.ndarray:
-    """float32 values (...) as halves the way Cycles' CPU float_to_half_image makes them: the mantissa truncated
-    (not rounded), magnitudes below 2^-14 flushed to 0, those above 65504 (and inf, NaN) clamped to 65504, the sign
-    kept -> (...) float16."""
+    """float32 values (...) as halves the way Cycles' CPU float_to_half_image of Blender 4.2 .. 5.0 makes them: the
+    mantissa truncated (not rounded), magnitudes below 2^-14 (subnormals) flushed to 0, those of 65536 and above (and
+    inf, NaN) clamped to 65504 (65504 .. 65536 truncate to 65504 too), the sign kept (NaN's too) -> (...) float16."""
     u = np.ascontiguousarray(values, np.float32).view(np.uint32).astype(np.int64)
     sign = (u & 0x80000000) >> 16
     exponent = u & 0x7F800000
@@ -363,13 +412,14 @@ def half_truncated(values: np.ndarray) -> np.ndarray:
     return (bits | sign).astype(np.uint16).view(np.float16)
 
 
-def associated(pixels: np.ndarray) -> np.ndarray:
+def associated(pixels: np.ndarray, rounding: HalfRounding = None) -> np.ndarray:
     """RGBA pixels (h, w, 4) with straight alpha as Cycles associates them when it loads an image
     (util_image_multiply_native, before any colour decoding: sRGB values stay encoded): each colour times its alpha
     in the stored type, bytes as (c a) // 255 and shorts as (c a) // 65535 (truncated), half floats as the float32
-    product made half by half_truncated, floats as the float32 product; the alpha kept. Cycles does so for exactly
-    4 channels (grey and alpha stays straight): other pixels, and pixels with no alpha below 1, are given back as they
-    are (no copy)."""
+    product of the halves as Cycles reads them (half_widened) made half as `rounding` says (HalfRounding, needed for
+    half floats only; half_of), floats as the float32 product; the alpha kept. Cycles does so for exactly 4 channels
+    (grey and alpha stays straight): other pixels, and pixels with no alpha below 1, are given back as they are (no
+    copy)."""
     if pixels.ndim != 3 or pixels.shape[2] != 4 or not has_alpha_below_one(pixels):
         return pixels
     out = pixels.copy()
@@ -377,7 +427,8 @@ def associated(pixels: np.ndarray) -> np.ndarray:
         wide = pixels.astype(np.uint32)
         out[..., :3] = (wide[..., :3] * wide[..., 3:4]) // np.uint32(opaque_value(pixels.dtype))
     elif pixels.dtype == np.float16:
-        out[..., :3] = half_truncated(pixels[..., :3].astype(np.float32) * pixels[..., 3:4].astype(np.float32))
+        wide = half_widened(pixels, rounding)       # (Cycles' read of both halves, then the product made half)
+        out[..., :3] = half_of(wide[..., :3] * wide[..., 3:4], rounding)
     else:
         out[..., :3] = pixels[..., :3] * pixels[..., 3:4]
     return out
