@@ -974,35 +974,26 @@ def _object_camera(obj, warnings) -> Camera:
     return Camera(matrix_world=np.array(obj.matrix_world, np.float64), **settings)
 
 
-def note_volume_space(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, spaces: dict,
-                      warnings: list) -> None:
+def note_volume_space(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, spaces: dict) -> "tuple | None":
     """Keep in `spaces` (material index -> Material.volume_space) the object space of each heterogeneous medium
     (a volume input fed by a link) among the materials `slots` (k,) of object `obj` placed by `matrix` (4, 4): its
-    graph reads the points' Object and Generated coordinates there. One space per material: a second object of
-    another placement holding the same one is warned of (Primer reads its medium in the first one's space), unless
-    the graph reads Object Info (a medium per object, each in its own placement: core/volumes/media.py per_object),
-    where only another texture space is."""
+    graph reads the points' Object and Generated coordinates there (the first object's; a medium on objects of other
+    placements or texture spaces is kept per object, each in its own: core/volumes/media.py per_object). Returns
+    the object's texture space (location (3,), size (3,)) for its Instance.texspace where it holds such a medium,
+    else None."""
     from ..core.volumes import field as field_
-    from ..core.volumes import media as media_
+    texspace = None
     for slot in sorted(set(slots[slots >= 0].tolist())):
         volume = materials[slot].volume
         if not volume or not field_.linked(volume):
             continue
-        inverse = np.linalg.inv(np.asarray(matrix, np.float64))[:3]
         data = obj.data
         location = np.array(getattr(data, "texspace_location", (0.0, 0.0, 0.0)), np.float64)
         size = np.array(getattr(data, "texspace_size", (1.0, 1.0, 1.0)), np.float64)
-        space = (inverse, location, size)
-        # (a medium kept per object reads its own placement; its texture space is still the first object's)
-        differs = [not np.allclose(a, b) for a, b in zip(spaces.get(slot, space), space)]
+        texspace = (location, size)
         if slot not in spaces:
-            spaces[slot] = space
-        elif any(differs[1:] if media_.reads_object(volume) else differs):
-            note = (f"material '{materials[slot].name}': its heterogeneous volume is held by objects of different "
-                    f"placements or texture spaces; Primer reads its coordinates in the first object's, also in "
-                    f"'{obj.name}'")
-            if note not in warnings:
-                warnings.append(note)
+            spaces[slot] = (np.linalg.inv(np.asarray(matrix, np.float64))[:3], location, size)
+    return texspace
 
 
 def media_of_layer(use_volumes: bool, materials: list, world: World) -> tuple:
@@ -1765,7 +1756,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         if obj.name not in terminator_offsets and obj.type == "MESH":
             terminator_offsets[obj.name] = (*_terminator_offsets(obj), bool(core.meshes[mesh_index[key]].smooth.any()))
         slots = materials.slot_map(obj, warnings, override)
-        note_volume_space(obj, matrix, slots, materials.materials, volume_spaces, warnings)
+        texspace = note_volume_space(obj, matrix, slots, materials.materials, volume_spaces)
         # The attributes its materials' node graphs read, and Cycles' random number of an instance.
         wanted = set()
         for slot in slots[slots >= 0].tolist():
@@ -1794,7 +1785,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                                                   asset=topmost_parent(obj).name, color=tuple(obj.color),
                                                   **links.of_object(obj),
                                                   attributes=materials_.object_attributes(instance),
-                                                  **from_instancer(instance)))
+                                                  texspace=texspace, **from_instancer(instance)))
         groups["instances"].append(lightgroups.source_group(obj))
 
     if mesh_cache is not None:

@@ -137,7 +137,7 @@ class _Placement:
     parent: int         # the instancer's session uid (the owner itself when not instanced)
     visible: tuple = ()             # export.instance_keywords' items: Ray Visibility, Holdout, terminator offsets
     attributes: Optional[dict] = None   # Object and Instancer attributes, Particle Info (materials.object_attributes)
-    dupli: tuple = ()               # export.from_instancer's items: Generated and UV From Instancer
+    dupli: tuple = ()               # export.from_instancer's items: Generated and UV From Instancer (and texspace)
 
     def same_as(self, other: "_Placement") -> bool:
         """Whether `other` places the same mesh at the same spot with the same materials and visibility."""
@@ -316,9 +316,15 @@ class SceneCache:
         report.objects.append(obj.name)
         slots = self.material_table.slot_map(obj, self.warnings, self.override)
         self._read_attributes(obj, mesh_key, slots)
-        return _Placement(mesh_key, np.array(instance.matrix_world, np.float64), slots, obj.name, owner,
-                          key[1] or owner, tuple(export.instance_keywords(obj).items()),
-                          export.materials_.object_attributes(instance), tuple(export.from_instancer(instance).items()))
+        matrix = np.array(instance.matrix_world, np.float64)
+        dupli = tuple(export.from_instancer(instance).items())
+        # (the texture space a heterogeneous medium it holds reads its Generated coordinates in: Instance.texspace)
+        texspace = export.note_volume_space(obj, matrix, slots, self.material_table.materials, {})
+        if texspace is not None:
+            dupli += (("texspace", texspace),)
+        return _Placement(mesh_key, matrix, slots, obj.name, owner, key[1] or owner,
+                          tuple(export.instance_keywords(obj).items()), export.materials_.object_attributes(instance),
+                          dupli)
 
     def _read_attributes(self, obj, mesh_key, slots: np.ndarray) -> None:
         """Read into the cached mesh the per-corner attributes its materials' node graphs use (export.mesh_attributes)."""

@@ -450,6 +450,21 @@ ROOM_SAMPLES = int(os.environ.get("PRIMER_ROOM_SAMPLES", 512))
 ROOM_CYCLES = int(os.environ.get("PRIMER_ROOM_CYCLES", 1024))
 
 
+def gradient_material(color):
+    """A volume-only Volume Absorption "Ramp" of `color` (3,) whose density is 3 x a linear Gradient Texture of its
+    Generated coordinates (3 x Generated x, clamped to 0 .. 3)."""
+    m, node = volume_material("Ramp", "ShaderNodeVolumeAbsorption", Color=tuple(color))
+    tree = m.node_tree
+    coords, gradient, times = (tree.nodes.new("ShaderNodeTexCoord"), tree.nodes.new("ShaderNodeTexGradient"),
+                               tree.nodes.new("ShaderNodeMath"))
+    times.operation = "MULTIPLY"
+    times.inputs[1].default_value = 3.0
+    tree.links.new(coords.outputs["Generated"], gradient.inputs["Vector"])
+    tree.links.new(gradient.outputs["Fac"], times.inputs[0])
+    tree.links.new(times.outputs[0], node.inputs["Density"])
+    return m
+
+
 def test_a_gradient_of_generated_coordinates_absorbs_as_in_cycles(primer, tmp_path):
     """A volume-only cube (scaled to 0.8 along its own x, turned -90 degrees about y so that its x is the world's
     height) over an emitter, its Volume Absorption's density 3 x a linear Gradient Texture of its Generated
@@ -462,15 +477,7 @@ def test_a_gradient_of_generated_coordinates_absorbs_as_in_cycles(primer, tmp_pa
     bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
     bpy.context.object.data.materials.append(emitting_material("Glow", glow))
     color = np.array([0.3, 0.6, 0.9])
-    m, node = volume_material("Ramp", "ShaderNodeVolumeAbsorption", Color=tuple(color))
-    tree = m.node_tree
-    coords, gradient, times = (tree.nodes.new("ShaderNodeTexCoord"), tree.nodes.new("ShaderNodeTexGradient"),
-                               tree.nodes.new("ShaderNodeMath"))
-    times.operation = "MULTIPLY"
-    times.inputs[1].default_value = 3.0
-    tree.links.new(coords.outputs["Generated"], gradient.inputs["Vector"])
-    tree.links.new(gradient.outputs["Fac"], times.inputs[0])
-    tree.links.new(times.outputs[0], node.inputs["Density"])
+    m = gradient_material(color)
     cube = box("Ramp", (0.0, 0.0, 1.5), (0.8, 1.0, 1.0), m)
     cube.rotation_euler = (0.0, -np.pi / 2, 0.0)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
@@ -480,6 +487,38 @@ def test_a_gradient_of_generated_coordinates_absorbs_as_in_cycles(primer, tmp_pa
     expected = np.broadcast_to(glow, mine.shape).copy()
     expected[2:6, 6:10] = glow * np.exp(-1.2 * (1.0 - color))
     print("gradient", np.abs(mine / expected - 1).max(), np.abs(cycles / expected - 1).max())
+    np.testing.assert_allclose(mine, expected, rtol=1e-5)
+    np.testing.assert_allclose(cycles, expected, rtol=2e-2)
+
+
+def test_a_gradient_on_cubes_of_other_placements_and_texture_spaces_reads_each_ones_own_as_in_cycles(primer, tmp_path):
+    """The Generated gradient (density 3 x Generated x) on two cubes turned -90 degrees about y (their x the world's
+    height): the left 0.8 high with its mesh's own texture space (Generated x = x_object + 0.5, 0 .. 1 down it:
+    exp(-3 x 0.5 x 0.8 (1 - colour))), the right 1.2 high and its mesh's texture space set by hand to location
+    (0.25, 0, 0), size (1, 0.5, 0.5) (Generated x = (x_object - 0.25) / 2 + 0.5, 0.125 .. 0.625: exp(-3 x 0.375 x
+    1.2 (1 - colour))). Cycles shades each object's volume in its own object and texture space, and so does Primer
+    (a field per object; it read both in the left cube's, and warned), nothing said. Primer to 1e-5, Cycles within 2%
+    (its null-scattering noise at 1024 samples: 1.6 % at most, each cube's mean within 0.07 %)."""
+    scene = ortho_scene(16, 8, 4.0)
+    glow = np.array([1.0, 0.8, 0.5])
+    bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
+    bpy.context.object.data.materials.append(emitting_material("Glow", glow))
+    color = np.array([0.3, 0.6, 0.9])
+    m = gradient_material(color)
+    for name, x, height in (("Left", -1.0, 0.8), ("Right", 1.0, 1.2)):
+        cube = box(name, (x, 0.0, 1.5), (height, 1.0, 1.0), m)
+        cube.rotation_euler = (0.0, -np.pi / 2, 0.0)
+    right = bpy.data.objects["Right"].data
+    right.use_auto_texspace = False
+    right.texspace_location, right.texspace_size = (0.25, 0.0, 0.0), (1.0, 0.5, 0.5)
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
+    stats = addon(primer, "engine").last_render.stats
+    assert stats.kernels == "compiled" and not any("Ramp" in w for w in stats.warnings), stats.warnings
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024, True)[..., :3]
+    expected = np.broadcast_to(glow, mine.shape).copy()
+    for depth, columns in ((3.0 * 0.5 * 0.8, slice(2, 6)), (3.0 * 0.375 * 1.2, slice(10, 14))):
+        expected[2:6, columns] = glow * np.exp(-depth * (1.0 - color))
+    print("spaces", np.abs(mine / expected - 1).max(), np.abs(cycles / expected - 1).max())
     np.testing.assert_allclose(mine, expected, rtol=1e-5)
     np.testing.assert_allclose(cycles, expected, rtol=2e-2)
 

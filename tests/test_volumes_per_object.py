@@ -280,3 +280,86 @@ def test_two_overlapping_objects_of_one_plain_material_are_two_media(marched, ke
     assert len(media.g) == 2 and len(media.fields) == (2 if marched else 0)
     apart = two_boxes(1.0)
     assert len(prepare(apart, RenderSettings(width=4, height=4)).extra["media"].g) == 1
+
+
+def coordinate(kind: str, axis: str = "Z") -> Link:
+    """A graph: the point's `kind` (Object or Generated) coordinate along `axis`."""
+    return Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(GraphNode("TEXCOORD"), kind)}), axis)
+
+
+def gradient(kind: str) -> Link:
+    """A graph: 2 x (the point's `kind` z) + 0.5 (Generated, 0 .. 1 in the texture space) or + 1.5 (Object, -0.5 ..
+    0.5 in the box): a density linear in the texture space's (the object's) height, positive in the box."""
+    offset = 0.5 if kind == "Generated" else 1.5
+    return Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": coordinate(kind), "1": 2.0, "2": offset}),
+                "Value")
+
+
+def placed_boxes(density, placements) -> Scene:
+    """The glowing floor under one box mesh (2 x 4 x 1 about its origin: z_object from -0.5 to 0.5) placed by each of
+    `placements` [(x, z, height scale, texspace or None)] (its centre at x, z, stretched along z by the scale), each
+    holding the shared absorbing material of density `density` (a graph reading no Object Info)."""
+    scene = Scene(camera=camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=GLOW))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(shared(density))
+    scene.meshes.append(primitives.box((2.0, 4.0, 1.0)))
+    for x, z, stretch, texspace in placements:
+        matrix = np.diag([1.0, 1.0, stretch, 1.0])
+        matrix[:3, 3] = (x, 0.0, z)
+        scene.instances.append(Instance(len(scene.meshes) - 1, matrix, np.array([1]), f"Box {x}", texspace=texspace))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("kind", ["Generated", "Object"])
+def test_a_field_on_boxes_of_different_placements_and_texture_spaces_reads_each_objects_own_coordinates(kind, kernels):
+    """Density 2 h + 0.5 (h the point's Generated z) or 2 h + 1.5 (its Object z; the graph reads no Object Info) on
+    one box mesh placed
+    twice: at x = -1, z 0.5 .. 1.5, texture space location 0, size (1, 1, 0.5) (Generated z = z_object + 0.5, 0 .. 1),
+    and at x = 1 stretched 1.5 times, z 0.5 .. 2, texture space location (0, 0, 0.25), size 1 (Generated z =
+    (z_object - 0.25) / 2 + 0.5, 0.125 .. 0.625). Cycles shades each object's volume in its own object and texture
+    space: the left lets through exp(-1.5 (1 - colour)) either way (mean density 1.5 over depth 1); the right
+    exp(-1.25 x 1.5 (1 - colour)) by Generated, exp(-1.5 x 1.5 (1 - colour)) by Object (Primer used to read both in
+    the left box's space, and warned). Each box is its own
+    field, nothing said."""
+    scene = placed_boxes(gradient(kind), [(-1.0, 1.0, 1.0, ((0.0, 0.0, 0.0), (1.0, 1.0, 0.5))),
+                                          (1.0, 1.25, 1.5, ((0.0, 0.0, 0.25), (1.0, 1.0, 1.0)))])
+    image, stats = rendered(scene, kernels)
+    right = 1.25 * 1.5 if kind == "Generated" else 1.5 * 1.5
+    expected = halves(GLOW * np.exp(-1.5 * (1.0 - COLOR)), GLOW * np.exp(-right * (1.0 - COLOR)))
+    np.testing.assert_allclose(image, expected, rtol=1e-5)
+    assert not any("volume" in w or "Shared" in w for w in stats.warnings), stats.warnings
+    media = prepare(scene, RenderSettings(width=4, height=4)).extra["media"]
+    assert len(media.fields) == 2
+    np.testing.assert_allclose([f.size for f in media.fields], [(1.0, 1.0, 0.5), (1.0, 1.0, 1.0)])
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_one_box_placed_twice_with_one_texture_space_reads_alike_in_each_placement(kernels):
+    """The box mesh placed at x = -1 (z 0.5 .. 1.5) and at x = 1 lifted by 0.25 (z 0.75 .. 1.75), both of texture
+    space location 0, size 0.5 (Generated z = z_object + 0.5): density 2 Generated z + 0.5 lets through
+    exp(-1.5 (1 - colour)) in both halves, as each is read in its own placement (in the first's, the lifted one's
+    Generated z would run 0.25 .. 1.25: exp(-2 (1 - colour)))."""
+    texspace = ((0.0, 0.0, 0.0), (0.5, 0.5, 0.5))
+    scene = placed_boxes(gradient("Generated"), [(-1.0, 1.0, 1.0, texspace), (1.0, 1.25, 1.0, texspace)])
+    image, _ = rendered(scene, kernels)
+    np.testing.assert_allclose(image, halves(*[GLOW * np.exp(-1.5 * (1.0 - COLOR))] * 2), rtol=1e-5)
+
+
+def test_objects_of_one_placement_and_texture_space_share_one_field_and_only_those():
+    """A field whose graph reads no Object Info is one medium on objects alike in placement and texture space (two
+    boxes built in world space, placed by the identity, and none given: the material's volume_space), and a medium
+    per object only where they differ: the same two boxes given texture spaces of different sizes are two fields,
+    and of one size one field again."""
+    def fields(texspaces) -> list:
+        scene = two_boxes(gradient("Generated"))
+        for instance, texspace in zip(scene.instances[1:], texspaces):
+            instance.texspace = texspace
+        return prepare(scene, RenderSettings(width=4, height=4)).extra["media"].fields
+
+    assert len(fields([None, None])) == 1
+    one = ((0.0, 0.0, 1.0), (1.0, 2.0, 0.5))
+    assert len(fields([one, one])) == 1
+    two = fields([one, ((0.0, 0.0, 1.0), (1.0, 2.0, 1.0))])
+    assert len(two) == 2 and [tuple(f.size) for f in two] == [(1.0, 2.0, 0.5), (1.0, 2.0, 1.0)]

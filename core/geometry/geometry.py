@@ -68,6 +68,8 @@ class WorldGeometry:
     instance_random: (n,) float64 the Object Info Random of each Scene.instances entry
     instance_info: (n, OBJECT_INFO_WIDTH) float64 each instance's other Object Info outputs (instance_info)
     instance_linear: (n, 3, 3) float64 each instance's linear transform (tangents turn with it)
+    instance_texspace: (n, 6) float64 each instance's texture space location and size (Instance.texspace; NaN where
+                    it gives none), or an empty array when none gives one
     instance_hidden: (n,) uint8 the rays each Scene.instances entry hides from (HIDDEN_FROM_* bits, Ray
                     Visibility), whether it is a holdout (HOLDOUT) and a shadow catcher (SHADOW_CATCHER), or an empty
                     array when no object has any of them
@@ -98,6 +100,7 @@ class WorldGeometry:
     instance_random: np.ndarray = field(default_factory=lambda: np.zeros(0))
     instance_info: np.ndarray = field(default_factory=lambda: np.zeros((0, OBJECT_INFO_WIDTH)))
     instance_linear: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    instance_texspace: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     instance_hidden: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
     instance_links: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.uint64))
     instance_terminator: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
@@ -668,6 +671,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_random=np.array([graph_.object_random(i.name) if i.random is None else float(i.random)
                                   for i in scene.instances], np.float64),
         instance_linear=all_matrices[:, :3, :3].copy(),
+        instance_texspace=texspace_table(scene.instances),
         instance_info=instance_info(scene.instances, all_matrices, getattr(scene, "instance_attributes", ())),
         instance_hidden=hidden_flags(scene.instances),
         instance_links=link_table(scene.instances),
@@ -700,6 +704,17 @@ def instance_info(instances: list, matrices: np.ndarray, attributes=()) -> np.nd
         info[:, start:start + 4] = [(instance.attributes or {}).get(name, (0.0, 0.0, 0.0, 0.0))
                                     for instance in instances]
     return info
+
+
+def texspace_table(instances: list) -> np.ndarray:
+    """(n, 6) float64 each instance's texture space location and size (Instance.texspace), NaN where it gives none;
+    empty when none gives one."""
+    if not any(getattr(i, "texspace", None) is not None for i in instances):
+        return np.zeros((0, 6))
+    return np.array([np.concatenate([np.asarray(i.texspace[0], np.float64).reshape(3),
+                                     np.asarray(i.texspace[1], np.float64).reshape(3)])
+                     if getattr(i, "texspace", None) is not None else np.full(6, np.nan) for i in instances],
+                    np.float64).reshape(-1, 6)
 
 
 def hidden_flags(instances: list) -> np.ndarray:

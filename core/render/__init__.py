@@ -595,8 +595,9 @@ def volume_reason(ctx: Context, warnings: list) -> str:
         kept = int((media.keyed >= 0).sum())
         note = (f"volumes: {len(media.g)} media"
                 + (f" ({len(media.g) - int((media.column >= 0).sum())} of them kept per object for {kept} "
-                   f"material{'s' if kept > 1 else ''}: a volume that reads Object Info, on objects that overlap, or "
-                   "emitting into several light groups)" if kept else "")
+                   f"material{'s' if kept > 1 else ''}: a volume that reads Object Info, a field on objects of other "
+                   "placements or texture spaces, on objects that overlap, or emitting into several light "
+                   "groups)" if kept else "")
                 + f"; a ray is in at most {int(volumes.MAX_MEDIA)} at once in the compiled kernel's volume stack and "
                   "leaves a further one out (Cycles: 30)")
         if note not in warnings:

@@ -109,6 +109,9 @@ class Instance:
     dupli_generated, dupli_uv: an instance's Generated (3,) and UV (2,) From Instancer (the Texture Coordinate node):
                the point of its instancer it was placed at (Cycles' dupli_generated, 0.5 orco - 0.5, and dupli_uv);
                None: (0, 0, 0), (0, 0), as for an object that is no instance
+    texspace:  (location (3,), size (3,)) its mesh's texture space (Blender's texspace_location, texspace_size): the
+               Generated coordinates a heterogeneous medium it holds reads, (P_object - location) / (2 size) + 0.5
+               (core/volumes/media.py per_object); None: the material's volume_space's
     motion:    its object-to-world matrices (4, 4) at s >= 2 evenly spaced times over the shutter (Cycles' object
                motion steps, open to close), when it moves over it; () still. A moving instance is traced as an Embree
                instance of its own placed at each ray's time (core/geometry/geometry.py build_geometry).
@@ -155,6 +158,7 @@ class Instance:
     attributes: Optional[dict] = None
     dupli_generated: Optional[tuple] = None
     dupli_uv: Optional[tuple] = None
+    texspace: Optional[tuple] = None
     motion: tuple = ()
     deformation: tuple = ()
     deformation_normals: tuple = ()

@@ -265,15 +265,19 @@ class Field:
             weights[:, k] = share
         return kinds, parameters, weights
 
-    def placed(self, info: np.ndarray, random: float, bounds, to_object=None, step=None) -> "Field":
+    def placed(self, info: np.ndarray, random: float, bounds, to_object=None, step=None, texspace=None) -> "Field":
         """This medium held by another object (media.per_object): a copy (its program shared) whose graph reads the
         Object Info row `info` (W,) and `random`, marched in `bounds` (low (3,), high (3,)) in pieces of at most
         `step` (None: its box's diagonal / STEPS_ACROSS); with
-        `to_object` (3, 4) that object's world-to-object matrix, its Object coordinates (and Generated, in the same
-        texture space) and object transform that object's."""
+        `to_object` (3, 4) that object's world-to-object matrix, its Object coordinates (and Generated) and object
+        transform that object's; with `texspace` (location (3,), size (3,)) its Generated coordinates read in that
+        texture space (None: this medium's)."""
         import copy
         made = copy.copy(self)
         made.info, made.random = np.asarray(info, np.float64), float(random)
+        if texspace is not None:
+            made.location, made.size = (np.asarray(texspace[0], np.float64).reshape(3),
+                                        np.asarray(texspace[1], np.float64).reshape(3))
         if to_object is not None:
             made.matrix = np.asarray(to_object, np.float64).reshape(3, 4)
             placed = np.linalg.inv(np.vstack([made.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]

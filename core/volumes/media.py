@@ -21,9 +21,10 @@ phase function (`Coefficients.__add__`), and g keeps the sigma_s-weighted mean c
 scatters the same way (`Media.along`, media.c medium_scattering).
 
 `Media` is one table per render: a column per material with a volume (per object that holds it where its volume
-graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs: `per_object`; per object
-where its objects' boxes overlap, and per light group where it emits into several: `split_by_object`), the
-world's medium, and which materials are volume-only boundaries (a Volume and no Surface: rays pass through them,
+graph reads the object's Object Info, as Cycles' volume stack holds (object, shader) pairs, and per placement and
+texture space where it is a field, as Cycles reads each object's coordinates in that object's spaces: `per_object`;
+per object where its objects' boxes overlap, and per light group where it emits into several: `split_by_object`),
+the world's medium, and which materials are volume-only boundaries (a Volume and no Surface: rays pass through them,
 as Cycles' SD_HAS_ONLY_VOLUME). A material whose closures have inputs fed by links is a heterogeneous medium
 (field.py Field): its column's constant coefficients are zero and its rays are marched (`Stretch.march`), the
 march the proposal whose estimates ratio tracking and control variates make unbiased (`Stretch.transmittance`,
@@ -238,7 +239,8 @@ def medium_of(entries: list) -> Coefficients:
 
 class Media:
     """The render's media: a column per material with a volume (or, where its volume graph reads the object's Object
-    Info, a column per object or per group of objects that read alike: `Media.of`; one per object whose box overlaps
+    Info, or where it is a field on objects of different placements or texture spaces, a column per object or per
+    group of objects that read alike: `Media.of`, `per_object`; one per object whose box overlaps
     another's of the material, one per light group of an emitting one: `split_by_object`), and the world's medium.
     A ray's stack holds each medium once, in the order entered (`start`, `enter`, `leave`).
 
@@ -304,15 +306,18 @@ class Media:
         """The media of a scene's material records (each with `volume`, a list of closures, `volume_only`, and for a
         heterogeneous medium `volume_space`), the default material last, and the world's Volume
         closures; None when no medium is anywhere. geometry: the render's (its origin, each heterogeneous
-        medium's box of triangles, and the objects whose Object Info a volume graph reads: `per_object`), or None.
+        medium's box of triangles, and the objects whose Object Info, placement or texture space a volume graph
+        reads: `per_object`), or None.
         object_groups: (n,) int64 each Scene.instances entry's light group (lightgroups.LightGroups.instances), or
         None: an emitting medium on objects of different groups is kept per group (`split_by_object`)."""
         from . import field as field_
         fields, keyed = {}, {}
         for row, m in enumerate(materials):
             entries = getattr(m, "volume", None)
-            if entries and field_.linked(entries) and geometry is not None and reads_object(entries):
-                keyed[row] = per_object(entries, getattr(m, "volume_space", None), geometry, row)
+            kept = (per_object(entries, getattr(m, "volume_space", None), geometry, row)
+                    if entries and field_.linked(entries) and geometry is not None else None)
+            if kept is not None:
+                keyed[row] = kept
             elif entries and field_.linked(entries):
                 fields[row] = field_.Field(entries, getattr(m, "volume_space", None),
                                            None if geometry is None else geometry.origin,
@@ -723,32 +728,45 @@ def reads_object(entries: list) -> bool:
                for link in _links(entries))
 
 
-def per_object(entries: list, space, geometry, row: int) -> list:
-    """The media of material `row`'s Volume closures [(name, weight, inputs)], whose graph reads the object's Object
-    Info (reads_object), on the objects of `geometry` that hold its triangles: [(owners (j,) int64, Coefficients,
-    Field or None)], one per group of objects whose Object Info row and Random are alike (a column of Media each).
-    A graph of POINTLESS_NODES alone is one homogeneous medium per group: its closures' inputs read at one point
-    with that Object Info (Field.closures, every group's at once), then medium_of (as a constant graph); any other
-    is a Field per group (marched; its program compiled once, Field.placed), reading that Object Info, its Object
-    coordinates in that object's space (objects that read alike but are placed differently are groups apart), and
-    bounded by the group's triangles. space: the material's volume_space (its texture space and grids)."""
+def per_object(entries: list, space, geometry, row: int) -> Optional[list]:
+    """The media of material `row`'s Volume closures [(name, weight, inputs)] on the objects of `geometry` that hold
+    its triangles, one per object as Cycles evaluates each object's volume (its volume stack holds (object, shader)
+    pairs, each shaded in that object's space): [(owners (j,) int64, Coefficients, Field or None)], one per group
+    of objects that read alike (a column of Media each).
+    Where the graph reads the object's Object Info (reads_object), a group's objects have alike Object Info rows and
+    Random: a graph of POINTLESS_NODES alone is one homogeneous medium per group, its closures' inputs read at one
+    point with that Object Info (Field.closures, every group's at once), then medium_of (as a constant graph); any
+    other is a Field per group (marched; its program compiled once, Field.placed), reading that Object Info.
+    A Field's group's objects also share their placement and texture space: its Object coordinates are read in that
+    object's space and its Generated ones in that object's texture space (geometry.instance_texspace; where an object
+    gives none, the material's), each bounded by the group's triangles. A field whose graph reads no Object Info is
+    split only where its objects' placements or texture spaces differ: None where they are all alike (or some of its
+    triangles belong to no object, or its graph reads nothing of the point), the material's one Field then (Media.of).
+    space: the material's volume_space (its placement, texture space and grids)."""
     from . import field as field_
+    reads = reads_object(entries)
+    constant = all(link.node.kind in POINTLESS_NODES for link in _links(entries))
+    if not reads and constant:
+        return None
     objects = len(geometry.instance_random)
     low, high = np.full((objects, 3), np.inf), np.full((objects, 3), -np.inf)
+    loose = False
     for prims, triangles in triangle_chunks(geometry):         # (one pass: each object's box of these triangles)
         mine = np.flatnonzero(triangles.material == row)
         if len(mine):
             owner = np.repeat(geometry.owners(prims[mine]), 3)
             corners = triangles.corners[mine].reshape(-1, 3)
             keep = owner >= 0
+            loose |= not keep.all()
             np.minimum.at(low, owner[keep], corners[keep])
             np.maximum.at(high, owner[keep], corners[keep])
     owners = np.flatnonzero(np.isfinite(low[:, 0]))
     if len(owners) == 0:
-        return []
+        return [] if reads else None
+    if not reads and (loose or len(owners) < 2):
+        return None
     info = geometry.instance_info[owners] if len(geometry.instance_info) else np.zeros((len(owners), 8))
     random = geometry.instance_random[owners]
-    constant = all(link.node.kind in POINTLESS_NODES for link in _links(entries))
     # Each object's world-to-object matrix (its linear part and Location: a field's Object coordinates are its own).
     linear = (geometry.instance_linear[owners] if len(geometry.instance_linear)
               else np.broadcast_to(np.eye(3), (len(owners), 3, 3)))
@@ -756,9 +774,19 @@ def per_object(entries: list, space, geometry, row: int) -> list:
     placement = np.concatenate([np.where(flat[:, None, None], np.eye(3), linear), info[:, :3, None]], axis=2)
     to_object = np.linalg.inv(np.concatenate([placement, np.broadcast_to([[[0.0, 0.0, 0.0, 1.0]]],
                                                                           (len(owners), 1, 4))], axis=1))[:, :3]
-    keys = np.concatenate([info, random[:, None]] + ([] if constant else [linear.reshape(-1, 9)]), axis=1)
+    # Each object's texture space (location, size): its own, else the material's (else the unit box at the origin).
+    given = (np.concatenate([np.asarray(space[1], np.float64).reshape(3), np.asarray(space[2], np.float64).reshape(3)])
+             if space is not None else np.concatenate([np.zeros(3), np.ones(3)]))
+    texspace = np.broadcast_to(given, (len(owners), 6)).copy()
+    if len(getattr(geometry, "instance_texspace", ())):
+        own = geometry.instance_texspace[owners]
+        texspace = np.where(np.isfinite(own).all(axis=1)[:, None], own, texspace)
+    where = np.concatenate([to_object.reshape(-1, 12), texspace], axis=1)
+    keys = (np.concatenate([info, random[:, None]] + ([] if constant else [where]), axis=1) if reads else where)
     _, first, group = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     group = np.asarray(group).reshape(-1)
+    if not reads and len(first) < 2:
+        return None                                    # (one placement and texture space: the material's one field)
     order = np.argsort(first)                          # (the groups in the order of their first object)
     field = field_.Field(entries, space, geometry.origin, None, info=info[0], random=float(random[0]))
     if not constant:
@@ -768,7 +796,7 @@ def per_object(entries: list, space, geometry, row: int) -> list:
         return [(owners[group == g], NOTHING,
                  field.placed(info[first[g]], float(random[first[g]]),
                               (low[owners[group == g]].min(axis=0), high[owners[group == g]].max(axis=0)),
-                              to_object[first[g]], step))
+                              to_object[first[g]], step, (texspace[first[g], :3], texspace[first[g], 3:])))
                 for g in order]
     fixed = [[] for _ in order]                        # (each group's closures, their linked inputs read there)
     for k, _, values in field.closures(np.zeros((len(order), 3)), info[first[order]], random[first[order]]):
