@@ -204,13 +204,14 @@ def test_moving_the_camera_reexports_nothing(session_in_scene):
 
 
 def test_instancing_setting_rebuilds_the_bvh_with_the_twins_stored_once(session_in_scene):
-    """Instancing: Always stores "Cube A" (placed twice) once; back on Automatic its two copies return."""
+    """Instancing: Always stores the cubes once ("Cube A" placed twice, and "Cube B", another mesh of the same numbers:
+    geometry.same_meshes); back on Automatic their three copies return."""
     scene, session, recorder, _ = session_in_scene
     # Blender's UI tags the scene when a setting changes; a script must tag it itself.
     report = recorder.change(lambda: (setattr(scene.primer, "instancing", "ALWAYS"), scene.update_tag()))
     geometry = session.cache.geometry
-    assert report.bvh and [len(m.transforms) for m in geometry.instanced] == [2]
-    assert len(geometry.triangles) == 2 + 12 and geometry.triangle_count == 2 + 3 * 12
+    assert report.bvh and [len(m.transforms) for m in geometry.instanced] == [3]
+    assert len(geometry.triangles) == 2 and geometry.triangle_count == 2 + 3 * 12
     report = recorder.change(lambda: (setattr(scene.primer, "instancing", "AUTO"), scene.update_tag()))
     assert report.bvh and session.cache.geometry.instanced == []
     assert len(session.cache.geometry.triangles) == 2 + 3 * 12
