@@ -440,6 +440,38 @@ def test_a_fog_box_between_the_camera_and_the_catcher_glows_in_the_matte_and_sha
             np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(T, (4, 4, 3)), rtol=1e-5)
 
 
+@pytest.mark.parametrize("clamp", [0.0, 0.1])
+def test_what_a_fog_past_a_clear_pane_emits_in_front_of_the_catcher_is_in_its_light_group(clamp):
+    """The camera 3 m up over a clear pane of colour c (2.5 m), then a fog box from 0.5 m to 2 m that absorbs
+    (sigma_a) and glows (e), in light group F, the catcher floor below, no lamp: as Cycles 5.0 writes the fog's
+    emission before its split at the catcher (shade_volume.h film_write_volume_emission, in the fog object's group),
+    group F is the matte, c e (1 - T) / sigma_a with T = exp(-sigma_a 1.5), alpha 1 - mean(c T), on both kernels, with
+    and without Clamp Direct (the group capped as the matte's glow)."""
+    density, e = 0.4, 0.3
+    sigma = density * (1.0 - FOG)
+    T = np.exp(-sigma * 1.5)
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": density}),
+                          ("EMISSION", 1.0, {"color": np.ones(3), "strength": e})], 0.5, 2.0)
+    scene.materials.append(materials.Material(name="pane", nodes=[("TRANSPARENT", tuple(PANE), {})]))
+    scene.add_mesh(primitives.plane(4.0, center=(0.0, 0.0, 2.5)), materials=np.array([2]))
+    scene.lightgroups = {"lights": [], "instances": ["", "F", ""], "world": ""}
+    glow = PANE * e * (1.0 - T) / sigma
+    if clamp:
+        glow = glow * min(1.0, 3.0 * clamp / glow.sum())      # (the cap: 3 x Clamp Direct on the channel sum)
+    results = {}
+    for kernels in KERNELS:
+        settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                                  shadow_catcher_pass=True, transparent_background=True, light_groups=("F",),
+                                  sample_clamp_direct=clamp)
+        results[kernels] = result = render.render(scene, settings)
+        assert result.stats.kernels.startswith(kernels)
+        np.testing.assert_allclose(result.image[..., :3], np.broadcast_to(glow, (4, 4, 3)), rtol=1e-5, err_msg=kernels)
+        np.testing.assert_allclose(result.image[..., 3], 1.0 - (PANE * T).mean(), rtol=1e-5, err_msg=kernels)
+        np.testing.assert_allclose(result.aux["lightgroup:F"], result.image[..., :3], rtol=1e-5, err_msg=kernels)
+    np.testing.assert_allclose(results["compiled"].aux["lightgroup:F"], results["numpy"].aux["lightgroup:F"],
+                               rtol=1e-5, atol=1e-7)
+
+
 def test_what_primer_leaves_out_of_catchers_in_media_is_said_once():
     """A catcher with a Volume of its own (Cycles keeps it in the catcher-only scene), a scattering fog box seen from
     outside (its scattering past the boundary), Volume Bounces 2 (what the fog in front scatters): each said once;

@@ -281,8 +281,10 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
             if part is not None:
                 tally.add_rows(index, part, before)
             if sigma is not None:
-                if number > 0:
-                    front[index] += before * volumes.emitted(sigma, t_s[mine])
+                if number > 0:                   # (in the group of the medium it glows in, as the first stretch's)
+                    glow = before * volumes.emitted(sigma, t_s[mine])
+                    front[index] += glow
+                    lightgroups.add_emitted(tally, index, glow, sigma)
                 passed_media[mine_rows] *= sigma.transmittance(t_s[mine])
         if media_front is not None:
             front += media_front.emitted
