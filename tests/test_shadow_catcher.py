@@ -518,6 +518,25 @@ def test_the_catcher_only_scene_keeps_the_catchers_media_and_leaves_the_worlds_o
     np.testing.assert_array_equal(alone.sigma_t, media.sigma_t)
 
 
+def test_a_catchers_own_fog_around_the_camera_is_said_once_and_left_out_of_the_catcher_only_light():
+    """A catcher-flagged absorbing fog box around the camera and the catcher floor (Primer's catcher-only camera rays
+    would cross it again before the catcher; Cycles' split path starts there): it is left out of the catcher-only
+    scene, said once, and the pass is what it is with the fog flagged no catcher, exp(-sigma_a 4) under a
+    straight-down sun, on both kernels."""
+    density = 0.3
+    sigma = density * (1.0 - FOG)
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": density})], -0.5, 4.0)
+    scene.instances[1].is_shadow_catcher = True
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=2.0))
+    for kernels in KERNELS:
+        settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                                  shadow_catcher_pass=True, transparent_background=True)
+        result = render.render(scene, settings)
+        assert sum("Volume the camera may be inside" in w for w in result.stats.warnings) == 1, result.stats.warnings
+        np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(np.exp(-sigma * 4.0), (4, 4, 3)),
+                                   rtol=1e-5, err_msg=kernels)
+
+
 def test_what_primer_leaves_out_of_catchers_in_media_is_said_once():
     """A scattering fog box seen from outside (its scattering past the boundary), Volume Bounces 2 (what the fog in
     front scatters): each said once, and not the catcher's own Volume (kept); an absorbing fog around everything,

@@ -44,8 +44,9 @@ groups and Volume Direct kept), and what they let through multiplies the split p
 (`front_media`; past a clear surface or a volume's boundary in front of the catcher, the media it leads into add
 their emission, in their light groups too, and transmittance the same way, sample_rows); the catcher-only scene keeps
 the catcher objects' own media alone (`catcher_media`: the world's left out, the other objects' never entered, for
-they are hidden from every ray). Left out, said once (`media_notes`): what media past the camera ray's first surface
-scatter, and with Volume Bounces what media in front of a catcher scatter.
+they are hidden from every ray; but a catcher's medium the camera may be inside, said once). Left out, said once
+(`media_notes`): what media past the camera ray's first surface scatter, and with Volume Bounces what media in front
+of a catcher scatter.
 """
 from __future__ import annotations
 
@@ -97,6 +98,9 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
                      "only its shadows where the camera path goes through); behind purely Transparent surfaces "
                      "it is caught")
     notes.extend(media_notes(ctx, geometry))
+    media, note = catcher_media(ctx, geometry)
+    if note:
+        notes.append(note)
     for note in notes:
         if warnings is not None and note not in warnings:
             warnings.append(note)
@@ -113,7 +117,7 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
     # (and no Fast GI Add: Cycles' split path, PATH_RAY_SHADOW_CATCHER_PASS, traces no ambient occlusion)
     settings = dataclasses.replace(ctx.settings, passes=(), light_groups=(), denoising_features=False, aux=(),
                                    ao_additive_factor=0.0)
-    extra = dict(ctx.extra, transparent=True, camera_lamps=[], media=catcher_media(ctx, geometry), emitters=emitters,
+    extra = dict(ctx.extra, transparent=True, camera_lamps=[], media=media, emitters=emitters,
                  light_groups=None, pass_layout=passes_.PassLayout((), 1))
     if extra["media"] is None:
         extra.pop("media_bounds", None)     # (else the render's box of the media's triangles holds the catchers')
@@ -125,14 +129,29 @@ def catcher_media(ctx: Context, geometry):
     """The media of the catcher-only scene of `ctx` (its `geometry`): the render's without the world's, as Cycles
     re-makes the split path's volume stack of the objects its shadow-catcher visibility sees (the objects that are
     not catchers hidden from every ray there: their media never enter a stack, rays.camera_media passes them), or
-    None where no catcher object has a Volume."""
+    None where no catcher object has a Volume; and a note, or None. Where the camera may start inside a catcher's
+    medium (within the box of their triangles; an orthographic camera's half width around it) it keeps none and says
+    so: its rays there would cross that medium again before the catcher (Cycles' split path starts at the catcher,
+    the camera's stretch already in its throughput). Returns (Media or None, str or None)."""
     media = ctx.extra.get("media")
     if media is None or not media.has_medium.any():
-        return None
+        return None, None
     prims = np.flatnonzero(geometry.hidden(np.arange(geometry.triangle_count), SHADOW_CATCHER))
-    if len(prims) == 0 or not media.has_medium[geometry.triangle_data(prims, smooth=False).material].any():
-        return None
-    return media.without_world()
+    if len(prims) == 0:
+        return None, None
+    triangles = geometry.triangle_data(prims, smooth=False)
+    mine = media.has_medium[triangles.material]
+    if not mine.any():
+        return None, None
+    corners = triangles.corners[mine].reshape(-1, 3)
+    camera = ctx.extra.get("camera")
+    margin = 0.5 * float(camera.ortho_scale) if camera is not None and camera.type == "ORTHO" else 0.0
+    eye = -np.asarray(ctx.extra.get("camera_offset", np.zeros(3)), np.float64)
+    if ((eye >= corners.min(axis=0) - margin) & (eye <= corners.max(axis=0) + margin)).all():
+        return None, ("shadow catchers: a catcher's own Volume the camera may be inside is left out of the "
+                      "catcher-only light the Shadow Catcher pass divides by (Cycles keeps it there from the catcher "
+                      "on); catchers' Volumes away from the camera are kept")
+    return media.without_world(), None
 
 
 def media_notes(ctx: Context, geometry) -> list:
