@@ -440,18 +440,116 @@ def test_a_fog_box_between_the_camera_and_the_catcher_glows_in_the_matte_and_sha
             np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(T, (4, 4, 3)), rtol=1e-5)
 
 
+@pytest.mark.parametrize("clamp", [0.0, 0.1])
+def test_what_a_fog_past_a_clear_pane_emits_in_front_of_the_catcher_is_in_its_light_group(clamp):
+    """The camera 3 m up over a clear pane of colour c (2.5 m), then a fog box from 0.5 m to 2 m that absorbs
+    (sigma_a) and glows (e), in light group F, the catcher floor below, no lamp: as Cycles 5.0 writes the fog's
+    emission before its split at the catcher (shade_volume.h film_write_volume_emission, in the fog object's group),
+    group F is the matte, c e (1 - T) / sigma_a with T = exp(-sigma_a 1.5), alpha 1 - mean(c T), on both kernels, with
+    and without Clamp Direct (the group capped as the matte's glow)."""
+    density, e = 0.4, 0.3
+    sigma = density * (1.0 - FOG)
+    T = np.exp(-sigma * 1.5)
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": density}),
+                          ("EMISSION", 1.0, {"color": np.ones(3), "strength": e})], 0.5, 2.0)
+    scene.materials.append(materials.Material(name="pane", nodes=[("TRANSPARENT", tuple(PANE), {})]))
+    scene.add_mesh(primitives.plane(4.0, center=(0.0, 0.0, 2.5)), materials=np.array([2]))
+    scene.lightgroups = {"lights": [], "instances": ["", "F", ""], "world": ""}
+    glow = PANE * e * (1.0 - T) / sigma
+    if clamp:
+        glow = glow * min(1.0, 3.0 * clamp / glow.sum())      # (the cap: 3 x Clamp Direct on the channel sum)
+    results = {}
+    for kernels in KERNELS:
+        settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                                  shadow_catcher_pass=True, transparent_background=True, light_groups=("F",),
+                                  sample_clamp_direct=clamp)
+        results[kernels] = result = render.render(scene, settings)
+        assert result.stats.kernels.startswith(kernels)
+        np.testing.assert_allclose(result.image[..., :3], np.broadcast_to(glow, (4, 4, 3)), rtol=1e-5, err_msg=kernels)
+        np.testing.assert_allclose(result.image[..., 3], 1.0 - (PANE * T).mean(), rtol=1e-5, err_msg=kernels)
+        np.testing.assert_allclose(result.aux["lightgroup:F"], result.image[..., :3], rtol=1e-5, err_msg=kernels)
+    np.testing.assert_allclose(results["compiled"].aux["lightgroup:F"], results["numpy"].aux["lightgroup:F"],
+                               rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("density", [0.0, 0.2])
+def test_a_catchers_own_fog_is_in_the_catcher_only_light_and_only_the_other_fogs_shadow_the_pass(kernels, density):
+    """A catcher-flagged absorbing fog box (sigma_c) from -0.5 m to 1 m over the catcher floor, inside a fog box that
+    is no catcher (sigma_n = density (1 - colour)) from -0.5 m to 4 m, the camera 3 m up in the latter, a straight-down
+    sun: the camera path splits at the catcher fog's top (1.9 m of the other fog in front: the matte's alpha
+    1 - mean(exp(-1.9 sigma_n))). As Cycles 5.0 re-makes the split path's volume stack of the catchers' media alone,
+    the catcher-only light crosses the catcher fog as the whole scene's does (twice 1 m) and never the other fog: the
+    pass is exp(-5 sigma_n), the other fog along the sun's 4 m and the view's last metre, the catcher fog's
+    cancelling (1 where there is no other fog); no warning of the catcher's Volume."""
+    sigma_n = density * (1.0 - FOG)
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": density})], -0.5, 4.0)
+    scene.materials.append(materials.Material(np.zeros(3), "Catcher fog", nodes=[("TRANSPARENT", np.ones(3), {})],
+                                              volume=[("ABSORPTION", 1.0, {"color": PANE, "density": 0.5})],
+                                              volume_only=True))
+    scene.add_mesh(primitives.box((10.0, 10.0, 1.5), center=(0.0, 0.0, 0.25)), materials=np.array([2]))
+    scene.instances[-1].is_shadow_catcher = True
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=2.0))
+    settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                              shadow_catcher_pass=True, transparent_background=True)
+    result = render.render(scene, settings)
+    assert result.stats.kernels.startswith(kernels)
+    np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(np.exp(-5.0 * sigma_n), (4, 4, 3)),
+                               rtol=1e-5)
+    np.testing.assert_allclose(result.image[..., :3], 0.0, atol=1e-7)
+    np.testing.assert_allclose(result.image[..., 3], 1.0 - np.exp(-1.9 * sigma_n).mean(), rtol=1e-5, atol=1e-7)
+    assert not any("shadow catchers" in w for w in result.stats.warnings), result.stats.warnings
+
+
+def test_the_catcher_only_scene_keeps_the_catchers_media_and_leaves_the_worlds_out():
+    """Cycles' split path re-makes its volume stack of the catchers' media, the world's volume "always assumed to be
+    CG" (left out): with an absorbing world volume and a catcher-flagged fog box, the catcher-only scene's media are
+    the render's columns with the world's extinction 0; without a catcher's medium it has none."""
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": 0.3})], -0.5, 1.0)
+    scene.world = World(color=np.zeros(3), volume=[("ABSORPTION", 1.0, {"color": PANE, "density": 0.1})])
+    settings = RenderSettings(width=4, height=4, samples=1, kernels="numpy", integrator="path", max_bounces=2,
+                              shadow_catcher_pass=True)
+    assert render.prepare(scene, settings).extra["catcher"].extra["media"] is None
+    scene.instances[1].is_shadow_catcher = True
+    ctx = render.prepare(scene, settings)
+    media, alone = ctx.extra["media"], ctx.extra["catcher"].extra["media"]
+    assert (media.world.sigma_t > 0.0).all()
+    np.testing.assert_array_equal(alone.world.sigma_t, 0.0)
+    np.testing.assert_array_equal(alone.sigma_t, media.sigma_t)
+
+
+def test_a_catchers_own_fog_around_the_camera_is_said_once_and_left_out_of_the_catcher_only_light():
+    """A catcher-flagged absorbing fog box around the camera and the catcher floor (Primer's catcher-only camera rays
+    would cross it again before the catcher; Cycles' split path starts there): it is left out of the catcher-only
+    scene, said once, and the pass is what it is with the fog flagged no catcher, exp(-sigma_a 4) under a
+    straight-down sun, on both kernels."""
+    density = 0.3
+    sigma = density * (1.0 - FOG)
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": density})], -0.5, 4.0)
+    scene.instances[1].is_shadow_catcher = True
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=2.0))
+    for kernels in KERNELS:
+        settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                                  shadow_catcher_pass=True, transparent_background=True)
+        result = render.render(scene, settings)
+        assert sum("Volume the camera may be inside" in w for w in result.stats.warnings) == 1, result.stats.warnings
+        np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(np.exp(-sigma * 4.0), (4, 4, 3)),
+                                   rtol=1e-5, err_msg=kernels)
+
+
 def test_what_primer_leaves_out_of_catchers_in_media_is_said_once():
-    """A catcher with a Volume of its own (Cycles keeps it in the catcher-only scene), a scattering fog box seen from
-    outside (its scattering past the boundary), Volume Bounces 2 (what the fog in front scatters): each said once;
-    an absorbing fog around everything, Volume Bounces 0, says none of them."""
+    """A scattering fog box seen from outside (its scattering past the boundary), Volume Bounces 2 (what the fog in
+    front scatters): each said once, and not the catcher's own Volume (kept); an absorbing fog around everything,
+    Volume Bounces 0, says none of them."""
     scene = in_a_fog_box([("SCATTER", 1.0, {"color": np.full(3, 0.5), "density": 0.3})], 0.5, 2.0)
     scene.materials[0] = materials.Material((0.5, 0.5, 0.5), "Floor", nodes=[("DIFFUSE", (0.5,) * 3, {})],
                                             volume=[("ABSORPTION", 1.0, {"color": FOG, "density": 0.1})])
     settings = RenderSettings(width=4, height=4, samples=1, kernels="numpy", integrator="path", max_bounces=2,
                               volume_bounces=2, shadow_catcher_pass=True)
     warnings = render.render(scene, settings).stats.warnings
-    for words in ("catcher object's own Volume", "past a Transparent surface", "Volume Bounces above 0"):
+    for words in ("past a Transparent surface", "Volume Bounces above 0"):
         assert sum(words in w for w in warnings) == 1, (words, warnings)
+    assert not any("own Volume" in w for w in warnings), warnings
     quiet = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": 0.3})], -0.5, 4.0)
     warnings = render.render(quiet, dataclasses.replace(settings, volume_bounces=0)).stats.warnings
     assert not any("shadow catchers" in w for w in warnings), warnings

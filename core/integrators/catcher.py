@@ -42,9 +42,11 @@ the split path goes on from the catcher with a volume stack re-made of the catch
 what the media in front of a caught sample's catcher emit and scatter towards the camera is the matte's (its light
 groups and Volume Direct kept), and what they let through multiplies the split path as the clear surfaces' T does
 (`front_media`; past a clear surface or a volume's boundary in front of the catcher, the media it leads into add
-their emission and transmittance the same way, sample_rows); the catcher-only scene has no media. Left out, said once
-(`media_notes`): a catcher's own Volume, what media past the camera ray's first surface scatter, and with Volume
-Bounces what media in front of a catcher scatter.
+their emission, in their light groups too, and transmittance the same way, sample_rows); the catcher-only scene keeps
+the catcher objects' own media alone (`catcher_media`: the world's left out, the other objects' never entered, for
+they are hidden from every ray; but a catcher's medium the camera may be inside, said once). Left out, said once
+(`media_notes`): what media past the camera ray's first surface scatter, and with Volume Bounces what media in front
+of a catcher scatter.
 """
 from __future__ import annotations
 
@@ -83,7 +85,8 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
     """The Context of the catcher-only scene of `ctx` (module docstring), or None where no object is a catcher:
     its geometry hides every other object from every ray, the emitters of those objects light no closure, its
     integrator writes no passes, light groups or features nor Fast GI's added occlusion, its camera rays see no lamps,
-    and it has no media (Cycles leaves the world's volume and those of objects that are not catchers out). What
+    and its media are the catcher objects' own (`catcher_media`: Cycles leaves the world's volume and those of objects
+    that are not catchers out). What
     it leaves out of Cycles' catchers is said once in `warnings` (where the scene has it)."""
     geometry = ctx.geometry
     if geometry is None or not geometry.hides(SHADOW_CATCHER):
@@ -95,6 +98,9 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
                      "only its shadows where the camera path goes through); behind purely Transparent surfaces "
                      "it is caught")
     notes.extend(media_notes(ctx, geometry))
+    media, note = catcher_media(ctx, geometry)
+    if note:
+        notes.append(note)
     for note in notes:
         if warnings is not None and note not in warnings:
             warnings.append(note)
@@ -111,28 +117,51 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
     # (and no Fast GI Add: Cycles' split path, PATH_RAY_SHADOW_CATCHER_PASS, traces no ambient occlusion)
     settings = dataclasses.replace(ctx.settings, passes=(), light_groups=(), denoising_features=False, aux=(),
                                    ao_additive_factor=0.0)
-    extra = dict(ctx.extra, transparent=True, camera_lamps=[], media=None, emitters=emitters, light_groups=None,
-                 pass_layout=passes_.PassLayout((), 1))
-    extra.pop("media_bounds", None)
+    extra = dict(ctx.extra, transparent=True, camera_lamps=[], media=media, emitters=emitters,
+                 light_groups=None, pass_layout=passes_.PassLayout((), 1))
+    if extra["media"] is None:
+        extra.pop("media_bounds", None)     # (else the render's box of the media's triangles holds the catchers')
     extra.pop("catcher", None)
     return dataclasses.replace(ctx, settings=settings, geometry=view, lights=lights, extra=extra)
 
 
+def catcher_media(ctx: Context, geometry):
+    """The media of the catcher-only scene of `ctx` (its `geometry`): the render's without the world's, as Cycles
+    re-makes the split path's volume stack of the objects its shadow-catcher visibility sees (the objects that are
+    not catchers hidden from every ray there: their media never enter a stack, rays.camera_media passes them), or
+    None where no catcher object has a Volume; and a note, or None. Where the camera may start inside a catcher's
+    medium (within the box of their triangles; an orthographic camera's half width around it) it keeps none and says
+    so: its rays there would cross that medium again before the catcher (Cycles' split path starts at the catcher,
+    the camera's stretch already in its throughput). Returns (Media or None, str or None)."""
+    media = ctx.extra.get("media")
+    if media is None or not media.has_medium.any():
+        return None, None
+    prims = np.flatnonzero(geometry.hidden(np.arange(geometry.triangle_count), SHADOW_CATCHER))
+    if len(prims) == 0:
+        return None, None
+    triangles = geometry.triangle_data(prims, smooth=False)
+    mine = media.has_medium[triangles.material]
+    if not mine.any():
+        return None, None
+    corners = triangles.corners[mine].reshape(-1, 3)
+    camera = ctx.extra.get("camera")
+    margin = 0.5 * float(camera.ortho_scale) if camera is not None and camera.type == "ORTHO" else 0.0
+    eye = -np.asarray(ctx.extra.get("camera_offset", np.zeros(3)), np.float64)
+    if ((eye >= corners.min(axis=0) - margin) & (eye <= corners.max(axis=0) + margin)).all():
+        return None, ("shadow catchers: a catcher's own Volume the camera may be inside is left out of the "
+                      "catcher-only light the Shadow Catcher pass divides by (Cycles keeps it there from the catcher "
+                      "on); catchers' Volumes away from the camera are kept")
+    return media.without_world(), None
+
+
 def media_notes(ctx: Context, geometry) -> list:
-    """What Primer leaves out of Cycles' shadow catchers in media (module docstring), one note each: a catcher
-    object's own Volume (Cycles keeps the catchers' media in the catcher-only scene: Primer's has none), what media
+    """What Primer leaves out of Cycles' shadow catchers in media (module docstring), one note each: what media
     between a clear surface and the catcher behind it scatter (their emission and transmittance are kept:
     sample_rows), and with Volume Bounces what media in front of a catcher scatter (`chains`)."""
     media = ctx.extra.get("media")
     if media is None:
         return []
     notes = []
-    if media.has_medium.any():
-        prims = np.flatnonzero(geometry.hidden(np.arange(geometry.triangle_count), SHADOW_CATCHER))
-        if len(prims) and media.has_medium[geometry.triangle_data(prims, smooth=False).material].any():
-            notes.append("shadow catchers: a catcher object's own Volume is left out of the catcher-only light the "
-                         "Shadow Catcher pass divides by (Cycles keeps the catchers' media there; the world's and "
-                         "other objects' volumes it leaves out, as Primer does)")
     if media.scatters and any(may and only_clear(shader)
                               for may, shader in zip(ctx.materials.may_pass, ctx.materials.shaders)):
         notes.append("shadow catchers: the light scattering volumes send to the camera past a Transparent surface or "
@@ -281,8 +310,10 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
             if part is not None:
                 tally.add_rows(index, part, before)
             if sigma is not None:
-                if number > 0:
-                    front[index] += before * volumes.emitted(sigma, t_s[mine])
+                if number > 0:                   # (in the group of the medium it glows in, as the first stretch's)
+                    glow = before * volumes.emitted(sigma, t_s[mine])
+                    front[index] += glow
+                    lightgroups.add_emitted(tally, index, glow, sigma)
                 passed_media[mine_rows] *= sigma.transmittance(t_s[mine])
         if media_front is not None:
             front += media_front.emitted

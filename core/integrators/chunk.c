@@ -466,6 +466,10 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
             double emitted[3] = {0.0, 0.0, 0.0};
             stretch_emitted(mm, sg, stretch_e, t, emitted);
             for (int c = 0; c < 3; c++) glow[c] += T[c] * emitted[c];
+            if (G > 0) {                        /* (in its medium's light group, as the first stretch's: media.c) */
+                double part[3] = {T[0] * emitted[0], T[1] * emitted[1], T[2] * emitted[2]};
+                add_to_group(groups, G, 0, emission_group(params->media, &inside, params->world_group), part, 1.0);
+            }
         }
         double seen[3], part[3 * MAX_LIGHT_GROUPS];  /* the lamps along this stretch, through what comes before */
         for (int64_t i = 0; i < 3 * G; i++) part[i] = 0.0;

@@ -17,7 +17,8 @@ from ..materials import graph as graph_
 from ..native import schema
 from ..geometry.surface import surface_at_hits
 from ..lights import LightFlags
-from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
+from ..visibility import (EVERY_RAY, HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY,
+                          HIDDEN_FROM_TRANSMISSION)
 from . import clamp as clamp_
 from . import lightgroups, shadows
 from .base import Context, Recorder
@@ -266,6 +267,15 @@ def media_bounds(geometry, media) -> tuple:
     return low, high
 
 
+def absent(geometry, prim: np.ndarray) -> np.ndarray:
+    """Which triangles `prim` (k,) int64 belong to objects hidden from every kind of ray (EVERY_RAY: the shadow
+    catchers' catcher-only scene hides the other objects so): (k,) bool. Cycles' rays never meet them."""
+    if not geometry.hides(EVERY_RAY):
+        return np.zeros(len(prim), bool)
+    owner = geometry.owners(np.asarray(prim, np.int64))
+    return (owner >= 0) & ((geometry.instance_hidden[np.maximum(owner, 0)] & EVERY_RAY) == EVERY_RAY)
+
+
 def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
     """camera_media's walk for rays O, D (n, 3): the stacks (n, V) int16 they start in (Media.start: each medium
     once, in the order the walk meets their back faces, as Cycles' integrator_volume_stack_init adds them)."""
@@ -284,7 +294,7 @@ def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
         column = media.column_of(surface.material, media.objects_of(ctx.geometry, surface.prim))
-        has = column >= 0
+        has = (column >= 0) & ~absent(ctx.geometry, surface.prim)     # (an object hidden from every ray: not there)
         back, front = has & surface.backfacing, has & ~surface.backfacing
         np.add.at(entered, (rows[front], column[front]), 1)
         left = back & (entered[rows, np.maximum(column, 0)] > 0)

@@ -260,6 +260,13 @@ static void camera_media(const MediaTables *media, const GeometryTables *geometr
         surface_at(P, D, (double)packet.ray.tfar[0], (double)packet.hit.u[0], (double)packet.hit.v[0], &tri, 0, &s);
         /* b. A front face entered; a back face left if entered on the way, else a medium the ray started in. */
         int32_t v = medium_column(media, s.material, s.object);
+        /* (an object hidden from every ray is not there: the shadow catchers' catcher-only scene, rays.absent) */
+        const int every = HIDDEN_FROM_CAMERA | HIDDEN_FROM_SHADOW | HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY
+                          | HIDDEN_FROM_TRANSMISSION | HIDDEN_FROM_VOLUME_SCATTER;
+        int64_t owner = geometry->hidden != NULL ? owner_of(geometry, (int64_t)packet.hit.geomID[0],
+                                                           (int64_t)packet.hit.primID[0], instance_of(&packet.hit, 0))
+                                                 : -1;
+        if (owner >= 0 && (geometry->hidden[owner] & every) == every) v = -1;
         if (v >= 0) {
             if (!s.backfacing) tally_add(&entered, v, 1);
             else if (tally_of(&entered, v) > 0) tally_add(&entered, v, -1);

@@ -363,6 +363,19 @@ class Media:
             column[mine] = np.where(owner >= 0, self.object_column[keyed[mine], np.maximum(owner, 0)], -1)
         return column
 
+    def without_world(self) -> "Media":
+        """These media with the world's left out (its Coefficients zero, its Field dropped): the shadow catchers'
+        catcher-only scene, whose rays Cycles never puts in the world's volume (core/integrators/catcher.py)."""
+        kept = copy.copy(self)
+        kept.world = NOTHING
+        if self.world_field is not None:
+            mine = self.field_columns >= 0
+            kept.fields = [f for f, m in zip(self.fields, mine) if m]
+            kept.field_columns = self.field_columns[mine]
+            kept.world_field = None
+        kept.notes = []
+        return kept
+
     @property
     def heterogeneous(self) -> bool:
         """Whether some medium varies from point to point (a Field)."""
