@@ -351,7 +351,7 @@ class SceneCache:
     def _core_scene(self) -> core_scene.Scene:
         """Return a new core Scene from the cache (meshes shared, lists fresh, so running renders keep theirs)."""
         world = self.world
-        materials = list(self.material_table.materials)
+        materials = self._with_volume_spaces(list(self.material_table.materials))
         if world is not None:
             materials, world = export.media_of_layer(self.use_volumes, materials, world)
         scene = core_scene.Scene(camera=core_scene.Camera(),
@@ -373,6 +373,23 @@ class SceneCache:
                                                        attributes=placement.attributes, **dict(placement.dupli)))
         scene.instance_attributes = list(export.materials_.INSTANCE_ATTRIBUTES)
         return scene
+
+    def _with_volume_spaces(self, materials: list) -> list:
+        """`materials` with each heterogeneous medium's space (Material.volume_space) that of the first placement
+        holding it, as export.note_volume_space gives the final render: its placement's inverse and texture space."""
+        from ..core.volumes import field as field_
+        spaces: dict = {}
+        for placement in self.placements.values():
+            texspace = dict(placement.dupli).get("texspace")
+            if texspace is None:
+                continue
+            slots = np.asarray(placement.materials)
+            for slot in sorted(set(slots[slots >= 0].tolist())):
+                volume = materials[slot].volume
+                if (slot not in spaces and volume and field_.linked(volume)
+                        and getattr(materials[slot], "volume_space", None) is None):
+                    spaces[slot] = (np.linalg.inv(np.asarray(placement.matrix, np.float64))[:3], *texspace)
+        return [dataclasses.replace(m, volume_space=spaces[i]) if i in spaces else m for i, m in enumerate(materials)]
 
     def _add_to_totals(self, report: SyncReport) -> None:
         """Add one sync's counts to `totals`."""

@@ -196,6 +196,31 @@ def test_changing_a_material_rebuilds_no_bvh_and_shows_the_new_colour(session_in
     np.testing.assert_allclose(frame.image[12, 12, :3], np.array([0.5, 0.25, 0.1]) / math.pi * 2.0, rtol=1e-5)
 
 
+def test_a_medium_read_in_object_coordinates_is_read_in_its_objects_space_in_the_viewport(session_in_scene):
+    """A volume whose density is linked to Object coordinates, on the moved "Cube B" alone: the viewport's scene reads
+    it in that cube's space and texture space, as the final render's export does (Material.volume_space)."""
+    scene, session, recorder, _ = session_in_scene
+    material = bpy.data.materials.new("Fog")
+    if bpy.app.version < (5, 0, 0):
+        material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.remove(nodes["Principled BSDF"])
+    coordinates, split = nodes.new("ShaderNodeTexCoord"), nodes.new("ShaderNodeSeparateXYZ")
+    absorption = nodes.new("ShaderNodeVolumeAbsorption")
+    links.new(coordinates.outputs["Object"], split.inputs[0])
+    links.new(split.outputs["Z"], absorption.inputs["Density"])
+    links.new(absorption.outputs[0], nodes["Material Output"].inputs["Volume"])
+    recorder.change(lambda: bpy.data.objects["Cube B"].data.materials.append(material))
+    cube = bpy.data.objects["Cube B"]
+    materials = session.cache._core_scene().materials
+    fog = next(m for m in materials if m.name == "Fog")
+    inverse, location, size = fog.volume_space
+    np.testing.assert_allclose(inverse, np.linalg.inv(np.array(cube.matrix_world))[:3], atol=1e-12)
+    np.testing.assert_allclose(location, cube.data.texspace_location, atol=1e-7)
+    np.testing.assert_allclose(size, cube.data.texspace_size, atol=1e-7)
+    assert abs(inverse[1, 3] + 3.0) < 1e-12            # (world y = 3 is the cube's origin)
+
+
 def test_moving_the_camera_reexports_nothing(session_in_scene):
     """A camera move changes no exported data and builds no BVH; only the view restarts the samples."""
     _, session, recorder, _ = session_in_scene
