@@ -183,6 +183,25 @@ def test_compiled_quad_samples_are_the_pythons():
                                                         expected.distance[quads]), expected.pdf[quads], rtol=1e-6)
 
 
+def test_a_quads_constants_made_once_are_the_ones_made_per_sample():
+    """The rectangle constants EmitterTables keeps for each quad (rect_frame: unit edges, their normal, lengths and
+    area, made once at set-up by emitters.rectangle_constants) are the numbers emitters.c makes per sample without
+    them: the C's samples with and without them are bitwise equal, near the lamps and far from them."""
+    rng = np.random.default_rng(11)
+    R, _ = random_rectangles(rng, 20)
+    emitters = lamp(np.concatenate([quad(*r) for r in R]))
+    points = np.concatenate([rng.normal(size=(2000, 3)), rng.normal(size=(500, 3)) * 300])
+    u = rng.random((len(points), 2))
+    kept, made = emitters.tables(), emitters.tables()
+    made.record.rect_frame = None
+    once = compiled_sample(emitters, points, u, LightContext(emitters=kept.record))
+    each = compiled_sample(emitters, points, u, LightContext(emitters=made.record))
+    assert (once.pdf > 0).mean() > 0.5
+    for a, b in ((once.L, each.L), (once.distance, each.distance), (once.pdf, each.pdf),
+                 (once.strength, each.strength)):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_only_exact_rectangles_of_one_key_pair_into_quads():
     """quad_partners pairs a rectangle's two triangles (either diagonal, any winding of the pair's order), and none of:
     a parallelogram that is not a rectangle, two triangles of different keys (objects or materials), of different

@@ -309,15 +309,32 @@ INLINE double rectangle_area(const double *R)
     return sqrt(dot3(c, c));
 }
 
-/* emitters.rectangle_frame for one point: rectangle R seen from P in Urena et al.'s local frame, x, y, z (3,) and
- * ext = {x0, x1, y0, y1, z0}, nz (4,) the z components of the unit normals of the planes through P and its edges,
- * g (4,) the asin terms (interior angles pi/2 - g, solid angle -sum(g)). */
-INLINE void rectangle_frame(const double *P, const double *R, double *x, double *y, double *z, double *ext,
-                            double *nz, double *g)
+/* emitters.rectangle_constants for one rectangle R (9,): what its frame needs wherever it is seen from, F (12,) =
+ * x, y its unit edges, z = x cross y, lx, ly its edge lengths and its area (EmitterTables.rect_frame holds a quad
+ * lamp's, made once at set-up by the same operations: the same numbers as made here per sample). */
+INLINE void rectangle_constants(const double *R, double *F)
 {
-    double lx = sqrt(dot3(R + 3, R + 3)), ly = sqrt(dot3(R + 6, R + 6)), d[3];
-    for (int c = 0; c < 3; c++) { x[c] = R[3 + c] / lx; y[c] = R[6 + c] / ly; d[c] = R[c] - P[c]; }
-    cross_product(x, y, z);
+    double lx = sqrt(dot3(R + 3, R + 3)), ly = sqrt(dot3(R + 6, R + 6));
+    for (int c = 0; c < 3; c++) { F[c] = R[3 + c] / lx; F[3 + c] = R[6 + c] / ly; }
+    cross_product(F, F + 3, F + 6);
+    F[9] = lx;
+    F[10] = ly;
+    F[11] = rectangle_area(R);
+}
+
+/* emitters.rectangle_frame for one point: rectangle R (its rectangle_constants F) seen from P in Urena et al.'s local
+ * frame, x, y, z (3,) and ext = {x0, x1, y0, y1, z0}, nz (4,) the z components of the unit normals of the planes
+ * through P and its edges, and turn = {S, cos(g2 + g3), sin(g2 + g3)}: the solid angle S = -(g0 + g1 + g2 + g3) and
+ * the paper's k - pi as a unit complex number, g_k the asin terms (interior angles pi/2 - g_k). No asin: each
+ * corner's cos g_k + i sin g_k, sin g_k = -nz_k nz_k+1 and cos g_k = |z0| |corner k + 1| / (rho_k rho_k+1) (rho_k:
+ * the length of plane k's raw normal; free of the cancellation in sqrt(1 - sin^2)), multiplied in pairs A (corners 0,
+ * 1) and B (2, 3); -AB = e^(i(pi - S)), pi - S in (-pi, pi): one atan2, no wrap-around. Where P is on the plane (z0
+ * not < 0: every cos g_k 0) S is the four asin's sum. */
+INLINE void rectangle_frame(const double *P, const double *R, const double *F, double *x, double *y, double *z,
+                            double *ext, double *nz, double *turn)
+{
+    double lx = F[9], ly = F[10], d[3];
+    for (int c = 0; c < 3; c++) { x[c] = F[c]; y[c] = F[3 + c]; z[c] = F[6 + c]; d[c] = R[c] - P[c]; }
     double z0 = dot3(d, z);
     if (z0 > 0.0) {
         for (int c = 0; c < 3; c++) z[c] = -z[c];
@@ -326,38 +343,64 @@ INLINE void rectangle_frame(const double *P, const double *R, double *x, double 
     double x0 = dot3(d, x), y0 = dot3(d, y);
     double x1 = x0 + lx, y1 = y0 + ly;
     ext[0] = x0; ext[1] = x1; ext[2] = y0; ext[3] = y1; ext[4] = z0;
-    double raw[4] = {-y0, x1, y1, -x0};
-    for (int k = 0; k < 4; k++) nz[k] = raw[k] / sqrt(raw[k] * raw[k] + z0 * z0);
+    double raw[4] = {-y0, x1, y1, -x0}, rho[4], sin_g[4], cos_g[4];
     for (int k = 0; k < 4; k++) {
-        double s = -nz[k] * nz[(k + 1) & 3];
-        s = s < -1.0 ? -1.0 : (s > 1.0 ? 1.0 : s);
-        g[k] = asin(s);
+        rho[k] = sqrt(raw[k] * raw[k] + z0 * z0);
+        nz[k] = raw[k] / rho[k];
     }
+    for (int k = 0; k < 4; k++) {          /* (unclamped: atan2 takes them as they are, asin below clamps) */
+        int next = (k + 1) & 3;
+        sin_g[k] = -nz[k] * nz[next];
+        cos_g[k] = -z0 * sqrt(raw[k] * raw[k] + raw[next] * raw[next] + z0 * z0) / (rho[k] * rho[next]);
+    }
+    double re_A = cos_g[0] * cos_g[1] - sin_g[0] * sin_g[1], im_A = cos_g[0] * sin_g[1] + sin_g[0] * cos_g[1];
+    double re_B = cos_g[2] * cos_g[3] - sin_g[2] * sin_g[3], im_B = cos_g[2] * sin_g[3] + sin_g[2] * cos_g[3];
+    double S;
+    if (z0 < 0.0) {
+        S = PI - atan2(-(re_A * im_B + im_A * re_B), -(re_A * re_B - im_A * im_B));
+    } else {
+        double g[4];
+        for (int k = 0; k < 4; k++) g[k] = asin(sin_g[k] < -1.0 ? -1.0 : (sin_g[k] > 1.0 ? 1.0 : sin_g[k]));
+        S = -(g[0] + g[1] + g[2] + g[3]);
+    }
+    turn[0] = S;
+    turn[1] = re_B;
+    turn[2] = im_B;
+}
+
+/* emitters.rectangle_solid_angle for one point, rectangle R with its rectangle_constants F. */
+INLINE double rectangle_solid_angle_of(const double *P, const double *R, const double *F)
+{
+    double x[3], y[3], z[3], ext[5], nz[4], turn[3];
+    rectangle_frame(P, R, F, x, y, z, ext, nz, turn);
+    double S = turn[0];
+    return S == S ? S : 0.0;
 }
 
 /* emitters.rectangle_solid_angle for one point. */
 INLINE double rectangle_solid_angle(const double *P, const double *R)
 {
-    double x[3], y[3], z[3], ext[5], nz[4], g[4];
-    rectangle_frame(P, R, x, y, z, ext, nz, g);
-    double S = -(g[0] + g[1] + g[2] + g[3]);
-    return S == S ? S : 0.0;
+    double F[12];
+    rectangle_constants(R, F);
+    return rectangle_solid_angle_of(P, R, F);
 }
 
-/* emitters.spherical_rectangle_sample for one point: the direction L uniform over the spherical rectangle R subtends
- * from P by u (2,), the distance to its point, pdf 1 / Omega (Urena, Fajardo and King 2013). */
-INLINE void spherical_rectangle_sample(const double *P, const double *R, const double *u, double *L, double *t,
-                                       double *pdf)
+/* emitters.spherical_rectangle_sample for one point: the direction L uniform over the spherical rectangle R (with its
+ * rectangle_constants F) subtends from P by u (2,), the distance to its point, pdf 1 / Omega (Urena, Fajardo and
+ * King 2013). */
+INLINE void spherical_rectangle_sample_of(const double *P, const double *R, const double *F, const double *u,
+                                          double *L, double *t, double *pdf)
 {
-    double x[3], y[3], z[3], ext[5], nz[4], g[4];
-    rectangle_frame(P, R, x, y, z, ext, nz, g);
+    double x[3], y[3], z[3], ext[5], nz[4], turn[3];
+    rectangle_frame(P, R, F, x, y, z, ext, nz, turn);
     double x0 = ext[0], x1 = ext[1], y0 = ext[2], y1 = ext[3], z0 = ext[4];
-    double S = -(g[0] + g[1] + g[2] + g[3]);
+    double S = turn[0];
     S = S == S ? S : 0.0;
     double b0 = nz[0], b1 = nz[2];
-    /* 1. x: the solid angle left of it u0 S (the paper's k = pi + g2 + g3, its pi taken out by flipping signs). */
-    double au = u[0] * S + g[2] + g[3];
-    double sin_au = sin(au), cos_au = cos(au);
+    /* 1. x: the solid angle left of it u0 S (the paper's au = u0 S + k, k = pi + g2 + g3, its pi taken out by
+     * flipping signs): sin and cos of u0 S turned by g2 + g3 (turn's unit complex number). */
+    double sin_a = sin(u[0] * S), cos_a = cos(u[0] * S);
+    double sin_au = sin_a * turn[1] + cos_a * turn[2], cos_au = cos_a * turn[1] - sin_a * turn[2];
     double fu = sin_au != 0.0 ? (cos_au * b0 + b1) / sin_au : 0.0;
     double cu = copysign(1.0 / sqrt(fu * fu + b0 * b0), fu);
     cu = cu < -1.0 ? -1.0 : (cu > 1.0 ? 1.0 : cu);
@@ -379,8 +422,17 @@ INLINE void spherical_rectangle_sample(const double *P, const double *R, const d
     *pdf = ok ? p : 0.0;
 }
 
-/* emitters.rectangle_area_sample for one point: corner + u0 edge u + u1 edge v, pdf t^2 / (|cos| A). */
-INLINE void rectangle_area_sample(const double *P, const double *R, const double *normal, const double *u,
+/* emitters.spherical_rectangle_sample for one point (spherical_rectangle_sample_of, the constants made here). */
+INLINE void spherical_rectangle_sample(const double *P, const double *R, const double *u, double *L, double *t,
+                                       double *pdf)
+{
+    double F[12];
+    rectangle_constants(R, F);
+    spherical_rectangle_sample_of(P, R, F, u, L, t, pdf);
+}
+
+/* emitters.rectangle_area_sample for one point: corner + u0 edge u + u1 edge v of area A, pdf t^2 / (|cos| A). */
+INLINE void rectangle_area_sample(const double *P, const double *R, double area, const double *normal, const double *u,
                                   double *L, double *t, double *pdf)
 {
     double w[3];
@@ -388,18 +440,27 @@ INLINE void rectangle_area_sample(const double *P, const double *R, const double
     double d = sqrt(dot3(w, w));
     for (int c = 0; c < 3; c++) L[c] = d > 0.0 ? w[c] / d : 0.0;
     double cos_light = fabs(dot3(normal, L));
-    double p = d * d / (cos_light * rectangle_area(R));
+    double p = d * d / (cos_light * area);
     *t = d;
     *pdf = isfinite(p) ? p : 0.0;
 }
 
-/* emitters.rectangle_side_and_way's second half: whether the quad R uses the spherical rectangle from a point at
- * `height` from its plane: its diagonal^2 > delta^2, delta = h / (2 A). */
-INLINE int rectangle_spherical(const double *R, double height)
+/* emitters.rectangle_side_and_way's second half: whether the quad R of area A uses the spherical rectangle from a
+ * point at `height` from its plane: its diagonal^2 > delta^2, delta = h / (2 A). */
+INLINE int rectangle_spherical(const double *R, double area, double height)
 {
     double diagonal[3] = {R[3] + R[6], R[4] + R[7], R[5] + R[8]};
-    double delta = height / (2.0 * rectangle_area(R));
+    double delta = height / (2.0 * area);
     return dot3(diagonal, diagonal) > delta * delta;
+}
+
+/* Quad lamp triangle i's rectangle_constants (of its rectangle R): the table's row (EmitterTables.rect_frame), else
+ * made into `made` (12,). */
+INLINE const double *quad_constants(const EmitterTables *e, int64_t i, const double *R, double *made)
+{
+    if (e->rect_frame != NULL) return e->rect_frame + 12 * i;
+    rectangle_constants(R, made);
+    return made;
 }
 
 /* MeshEmitters.lead: emitter i, or its quad's lead (the lower index of the two) where it is half of one. */
@@ -475,10 +536,12 @@ NOINLINE static void sample_emitters(const EmitterTables *e, const double *P, co
     double height = dot3(normal, to_V);
     int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;
     int allowed = (e->sides[i] & side) != 0;
-    double pdf_direction;
+    double pdf_direction, made[12];
     if (quad) {
-        if (rectangle_spherical(R, height)) spherical_rectangle_sample(P, R, u, out->L, &out->distance, &pdf_direction);
-        else rectangle_area_sample(P, R, normal, u, out->L, &out->distance, &pdf_direction);
+        const double *F = quad_constants(e, i, R, made);
+        if (rectangle_spherical(R, F[11], height))
+            spherical_rectangle_sample_of(P, R, F, u, out->L, &out->distance, &pdf_direction);
+        else rectangle_area_sample(P, R, F[11], normal, u, out->L, &out->distance, &pdf_direction);
     } else if (emitter_spherical(V, height, area)) {
         spherical_triangle_sample(P, V, u, out->L, &out->distance, &pdf_direction);
     } else {
@@ -527,10 +590,11 @@ INLINE double emitter_pdf(const EmitterTables *e, int64_t i, const double *O, co
     double height = dot3(normal, to_V);
     int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;
     if ((e->sides[i] & side) == 0) return 0.0;
-    double pdf_direction;
+    double pdf_direction, made[12];
     if (quad) {
-        if (rectangle_spherical(R, height)) pdf_direction = 1.0 / rectangle_solid_angle(O, R);
-        else pdf_direction = t * t / (fabs(dot3(normal, D)) * rectangle_area(R));
+        const double *F = quad_constants(e, i, R, made);
+        if (rectangle_spherical(R, F[11], height)) pdf_direction = 1.0 / rectangle_solid_angle_of(O, R, F);
+        else pdf_direction = t * t / (fabs(dot3(normal, D)) * F[11]);
     } else if (emitter_spherical(V, height, area)) {
         pdf_direction = 1.0 / triangle_solid_angle(O, V);
     } else {

@@ -529,11 +529,39 @@ def rectangle_side_and_way(R: np.ndarray, normal: np.ndarray, sides: np.ndarray,
     return allowed, np.einsum("ij,ij->i", diagonal, diagonal) > delta * delta
 
 
+def rectangle_constants(R: np.ndarray) -> np.ndarray:
+    """What rectangles R (n, 3, 3) [corner, edge u, edge v] give their frame from wherever they are seen (emitters.c
+    rectangle_constants, made once for a quad lamp's EmitterTables.rect_frame): (n, 12) float64 x, y the unit edges,
+    z = x cross y, lx, ly the edge lengths, the area |edge u x edge v|; each by the C's operations in its order (the
+    same numbers as the C makes per sample)."""
+    U, V = R[:, 1], R[:, 2]
+    lx = np.sqrt(U[:, 0] * U[:, 0] + U[:, 1] * U[:, 1] + U[:, 2] * U[:, 2])
+    ly = np.sqrt(V[:, 0] * V[:, 0] + V[:, 1] * V[:, 1] + V[:, 2] * V[:, 2])
+    with np.errstate(divide="ignore", invalid="ignore"):        # (a lone triangle's row: zeros, never read)
+        x, y = U / lx[:, None], V / ly[:, None]
+
+    def cross(a, b):
+        """a x b (n, 3) written out as emitters.c cross_product."""
+        return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                         a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+
+    n = cross(U, V)
+    area = np.sqrt(n[:, 0] * n[:, 0] + n[:, 1] * n[:, 1] + n[:, 2] * n[:, 2])
+    return np.concatenate([x, y, cross(x, y), lx[:, None], ly[:, None], area[:, None]], axis=1)
+
+
 def rectangle_frame(P: np.ndarray, R: np.ndarray) -> tuple:
     """Rectangles R (n, 3, 3) seen from P (n, 3) in Urena et al.'s local frame (x along edge u, y along edge v, z
     their normal turned away from P): (x, y, z (n, 3), x0, x1, y0, y1, z0 (n,) the rectangle's extent, z0 <= 0,
-    nz (4, n) the z components of the unit normals of the four planes through P and its edges, g (4, n) the asin
-    terms: the interior angles are pi/2 - g, the solid angle -sum(g) (no cancellation against 2 pi))."""
+    nz (4, n) the z components of the unit normals of the four planes through P and its edges, turn (3, n) = S the
+    solid angle, cos(g2 + g3), sin(g2 + g3): g_k the asin terms, the interior angles pi/2 - g_k, S = -sum(g), and
+    the paper's k - pi as a unit complex number).
+
+    No arcsin: each corner's cos g_k + i sin g_k, sin g_k = -nz_k nz_k+1, cos g_k = |z0| |corner k + 1| /
+    (rho_k rho_k+1) (rho_k the length of plane k's raw normal: no cancellation in sqrt(1 - sin^2)), multiplied in
+    pairs A (corners 0, 1) and B (2, 3); -AB = exp(i (pi - S)) with pi - S in (-pi, pi): one arctan2, no wrap-around
+    (nor cancellation against 2 pi). Where P is on the plane (z0 not < 0, every cos g_k 0), S is the four arcsin's
+    sum."""
     lx = np.sqrt(np.einsum("ij,ij->i", R[:, 1], R[:, 1]))
     ly = np.sqrt(np.einsum("ij,ij->i", R[:, 2], R[:, 2]))
     x, y = R[:, 1] / lx[:, None], R[:, 2] / ly[:, None]
@@ -545,18 +573,27 @@ def rectangle_frame(P: np.ndarray, R: np.ndarray) -> tuple:
     z0 = np.where(away, -z0, z0)
     x0, y0 = np.einsum("ij,ij->i", d, x), np.einsum("ij,ij->i", d, y)
     x1, y1 = x0 + lx, y0 + ly
-    nz = np.stack([-y0, x1, y1, -x0])
+    raw = np.stack([-y0, x1, y1, -x0])
+    rho = np.sqrt(raw * raw + z0 * z0)
+    following, rho_following = np.roll(raw, -1, axis=0), np.roll(rho, -1, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        nz = nz / np.sqrt(nz * nz + z0 * z0)
-    g = np.arcsin(np.clip(-nz * np.roll(nz, -1, axis=0), -1.0, 1.0))
-    return x, y, z, x0, x1, y0, y1, z0, nz, g
+        nz = raw / rho
+        sin_g = -nz * np.roll(nz, -1, axis=0)                     # (unclamped: arctan2 takes them as they are)
+        cos_g = -z0 * np.sqrt(raw * raw + following * following + z0 * z0) / (rho * rho_following)
+    re_A, im_A = cos_g[0] * cos_g[1] - sin_g[0] * sin_g[1], cos_g[0] * sin_g[1] + sin_g[0] * cos_g[1]
+    re_B, im_B = cos_g[2] * cos_g[3] - sin_g[2] * sin_g[3], cos_g[2] * sin_g[3] + sin_g[2] * cos_g[3]
+    S = np.pi - np.arctan2(-(re_A * im_B + im_A * re_B), -(re_A * re_B - im_A * im_B))
+    on_plane = ~(z0 < 0.0)
+    if on_plane.any():
+        g = np.arcsin(np.clip(sin_g[:, on_plane], -1.0, 1.0))
+        S[on_plane] = -(g[0] + g[1] + g[2] + g[3])
+    return x, y, z, x0, x1, y0, y1, z0, nz, np.stack([S, re_B, im_B])
 
 
 def rectangle_solid_angle(P: np.ndarray, R: np.ndarray) -> np.ndarray:
     """The solid angle (n,) of rectangles R (n, 3, 3) seen from points P (n, 3) (Urena et al. 2013; 0 seen
     edge-on)."""
-    g = rectangle_frame(P, R)[-1]
-    return np.nan_to_num(-(g[0] + g[1] + g[2] + g[3]))
+    return np.nan_to_num(rectangle_frame(P, R)[-1][0])
 
 
 def spherical_rectangle_sample(P: np.ndarray, R: np.ndarray, u: np.ndarray):
@@ -564,13 +601,13 @@ def spherical_rectangle_sample(P: np.ndarray, R: np.ndarray, u: np.ndarray):
     unit-square points u (n, 2) (Urena, Fajardo and King, "An area-preserving parametrization for spherical
     rectangles", 2013; u[:, 0] picks the x of the point by the solid angle left of it, u[:, 1] its y uniformly in
     the height of the direction's projection): (L (n, 3), t (n,) distance to the point, pdf (n,) = 1 / Omega)."""
-    x, y, z, x0, x1, y0, y1, z0, nz, g = rectangle_frame(P, R)
-    S = np.nan_to_num(-(g[0] + g[1] + g[2] + g[3]))
+    x, y, z, x0, x1, y0, y1, z0, nz, turn = rectangle_frame(P, R)
+    S = np.nan_to_num(turn[0])
     b0, b1 = nz[0], nz[2]
     # 1. x: the solid angle left of it is u0 S (the paper's au = u0 S + k, k = pi + g2 + g3 with the pi taken out
-    #    by flipping the signs of cos and sin, and of b1 with them).
-    au = u[:, 0] * S + g[2] + g[3]
-    sin_au, cos_au = np.sin(au), np.cos(au)
+    #    by flipping the signs of cos and sin, and of b1 with them): sin and cos of u0 S turned by g2 + g3.
+    sin_a, cos_a = np.sin(u[:, 0] * S), np.cos(u[:, 0] * S)
+    sin_au, cos_au = sin_a * turn[1] + cos_a * turn[2], cos_a * turn[1] - sin_a * turn[2]
     with np.errstate(divide="ignore", invalid="ignore"):
         fu = np.where(sin_au != 0.0, (cos_au * b0 + b1) / sin_au, 0.0)
         cu = np.clip(np.copysign(1.0 / np.sqrt(fu * fu + b0 * b0), fu), -1.0, 1.0)
@@ -750,6 +787,8 @@ EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as 
     ("partner", ptr(I64), "(t,) the other triangle of each one's quad lamp (MeshEmitters.partner), -1 alone, or NULL:\n"
                           "no quads"),
     ("rect", ptr(F64), "(t, 3, 3) each quad triangle's rectangle [corner, edge u, edge v] (MeshEmitters.rect), or NULL"),
+    ("rect_frame", ptr(F64), "(t, 12) each quad triangle's rectangle's constants (rectangle_constants: unit edges x, y,\n"
+                             "z = x cross y, edge lengths lx, ly, area), or NULL: emitters.c makes them per sample"),
 ])
 
 
@@ -770,7 +809,8 @@ class EmitterTables:
             textured=None if emitters.textured is None else c(emitters.textured, np.uint8),
             prim=c(emitters.prim, np.int64), mesh=None if emitters.mesh is None else c(emitters.mesh, np.int32),
             partner=None if emitters.partner is None else c(emitters.partner, np.int64),
-            rect=None if emitters.rect is None else c(emitters.rect, np.float64))
+            rect=None if emitters.rect is None else c(emitters.rect, np.float64),
+            rect_frame=None if emitters.rect is None else c(rectangle_constants(emitters.rect), np.float64))
 
 
 EmitterPickArgs = schema.record("EmitterPickArgs", "primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points.", [

@@ -1053,6 +1053,8 @@ time (with mesh; untyped: the lights sit below the geometry), or NULL */
     const int64_t *partner;                 /* (t,) the other triangle of each one's quad lamp (MeshEmitters.partner), -1 alone, or NULL:
 no quads */
     const double *rect;                     /* (t, 3, 3) each quad triangle's rectangle [corner, edge u, edge v] (MeshEmitters.rect), or NULL */
+    const double *rect_frame;               /* (t, 12) each quad triangle's rectangle's constants (rectangle_constants: unit edges x, y,
+z = x cross y, edge lengths lx, ly, area), or NULL: emitters.c makes them per sample */
 };
 
 /* primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points. */
@@ -1404,7 +1406,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
-    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(4521009592404648916);
+    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(8419466616318617950);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "EmitterPdfArgs") == 0) return UINT64_C(3790277589427127310);
     if (strcmp(name, "LampGraph") == 0) return UINT64_C(3628791564941194139);
