@@ -14,6 +14,18 @@ but the light samples of lamps with extent: both branches of glass are followed,
 samples beyond anti-aliasing. Rough surfaces get direct light only (no glossy reflections of other
 objects): that is what distinguishes Whitted's tracer from path tracing.
 
+Participating media (core/volumes), as the next lecture adds them: every ray the recursion traces (camera, mirror,
+refraction) carries its volume stack (the camera's start-up walk, then entered and left where a ray goes through a
+surface) and passes volume-only boundaries as if they were not there; over its way to the surface it meets
+
+    L = T(t) L(surface)  +  emission's integral  +  single scattering,      T(t) = exp(-integral of sigma_t)
+
+Beer-Lambert's T (ratio tracking through heterogeneous media) on the light of the surface, the world and the lamps it
+sees, the media's emission in closed form (volumes.emitted), and the light of the lamps scattered towards it by the
+phase function at points in the media (volume.in_scattering: the direct tracer's and path tracer's estimate for
+camera rays). Shadow rays keep T of their way to the lamp. Light is scattered once only: Whitted has no diffuse
+bounces, so neither has it volume bounces.
+
 The recursion stops after max_bounces bounces (glossy_bounces reflections, transmission_bounces
 refractions), or where a branch carries less than CUTOFF of the light (its children are dropped: a
 small, stated loss). Rays that escape see the world. This integrator runs on the Python reference path.
@@ -30,13 +42,16 @@ from ..geometry.surface import surface_at_hits
 from ..materials import glass as glass_
 from ..materials import graph as graph_
 from ..materials import microfacet as mf
+from .. import volumes
 from . import features as features_
 from . import lightgroups, shader_rays, shadows
 from . import passes as passes_
+from . import volume as volume_
 from .base import Context, Integrator, Radiance, Recorder, check_stop
-from .rays import camera_cones, lamps_seen, nearest_seen
+from .path import through_transparent
+from .rays import camera_cones, camera_media, lamps_seen, nearest_seen
 from .shadows import spawn_ray
-from .vertex import PathState, shade_vertex
+from .vertex import PathState, media_beyond, shade_vertex
 
 # A branch whose throughput falls below this in every channel is not followed.
 CUTOFF = 1e-4
@@ -74,13 +89,19 @@ class WhittedTracing(Integrator):
         data = passes_.DataPasses.of(ctx, sample)       # the first-hit passes (passes.py): of the camera's rays alone
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         cone, spread = camera_cones(ctx, O, D)     # each ray's cone (graph.LightPath), widened along the specular chain
+        media = ctx.extra.get("media")
+        inside = None if media is None else camera_media(ctx, O, D)     # each ray's volume stack (core/volumes)
         while len(owner):
             check_stop(ctx)
-            # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.
+            # 1. The rays of this depth: what they hit past volume-only boundaries, and on the way there the lamps
+            #    they pass and the light their media emit and scatter towards them (T: what the media let through).
             #    (Each ray passes the objects hidden from its kind: the camera's, a mirror reflection's (glossy), a
             #    refraction's (transmission); rays.nearest_seen.)
             kind = HIDDEN_FROM_CAMERA if depth == 0 else np.where(crossing, HIDDEN_FROM_TRANSMISSION, HIDDEN_FROM_GLOSSY)
-            found = nearest_seen(ctx, O, D, t_max, kind)
+            seen = lightgroups.tally(ctx, len(owner))     # what these rays see, by source
+            found, L_way, T, inside, rays = self.along_ray(ctx, O, D, t_max, kind, inside, throughput, pixel[owner],
+                                                          sample[owner], depth, recorder, seen)
+            shadow_rays += rays
             if depth == 0:
                 camera_hit = found.hit.copy()
             else:
@@ -89,20 +110,20 @@ class WhittedTracing(Integrator):
                     if mask.any():
                         recorder.rays(kind, O[mask], D[mask], t_hit[mask])
             missed = np.flatnonzero(~found.hit)
-            seen = lightgroups.tally(ctx, len(owner))     # what these rays see, by source
             if world is not None and world.camera and not (depth == 0 and s.transparent_background):
                 P = graph_.PATH                     # (each ray's path: the world's graph is evaluated for it)
                 flags = (P["camera"] if depth == 0 else
                          np.where(crossing[missed], P["transmit"], P["reflect"]) | P["glossy"] | P["singular"])
                 L_world = world.radiance_seen(D[missed], graph_.light_paths(len(missed), flags, depth, 0,
                                                                             glossy[missed], transmission[missed]))
+                L_world = L_world * T[missed]
                 np.add.at(L_out, owner[missed], throughput[missed] * L_world)
                 if seen is not None:
                     seen.add(missed, L_world, seen.groups.world)
-            lamps = lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), seen, escaped=~found.hit)
-            np.add.at(L_out, owner, throughput * lamps)
+            np.add.at(L_out, owner, throughput * L_way)
             if groups is not None:
                 groups.add_rows(owner, seen, throughput)
+            throughput = throughput * T                 # (what reaches the hits through the media)
             if feats is not None and depth == 0:
                 feats.albedo += L_out                   # what the camera sees itself
             if data is not None and depth == 0:
@@ -123,7 +144,8 @@ class WhittedTracing(Integrator):
                      np.where(crossing[hit], P["transmit"], P["reflect"]) | P["glossy"] | P["singular"])
             light_path = graph_.light_paths(len(hit), flags, depth, 0, glossy[hit], transmission[hit],
                                             cone=cone[hit], spread=spread[hit])
-            state = PathState(dimension=depth * (1 << 16), light_path=light_path, bounce=depth)
+            state = PathState(dimension=depth * (1 << 16), light_path=light_path, bounce=depth,
+                              inside=None if inside is None else inside[hit])     # (shadow rays keep T too)
             hit_groups = lightgroups.tally(ctx, len(hit))
             L_hit, rays, _ = shade_vertex(ctx, surface, wo, pixel[rows], sample[rows], recorder, state,
                                           light_samples_only=True, groups=hit_groups)
@@ -148,11 +170,72 @@ class WhittedTracing(Integrator):
             # (each child leaves with the footprint at its hit and the spread kept: rays.path_after)
             cone, spread = graph_.footprints(light_path, found.t[hit])[index], spread[hit][index]
             crossing = np.einsum("ij,ij->i", surface.Ng[index], D) < 0.0
+            if inside is not None:              # (a refraction enters or leaves the medium its surface bounds)
+                inside = media_beyond(ctx, surface, index, inside[hit][index], crossing)
             owner = rows[index]
             t_max = np.full(len(owner), np.inf)
             depth += 1
         return Radiance(L_out, camera_hit, shadow_rays, groups=None if groups is None else groups.L,
                         features=None if feats is None else feats.stacked(), passes=data)
+
+    def along_ray(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, kind, inside, throughput,
+                  pixel: np.ndarray, sample: np.ndarray, depth: int, recorder: Recorder, seen=None) -> tuple:
+        """What rays O, D (k, 3) up to t_max (k,) of `kind` (HIDDEN_FROM_* bit, int or (k,)) meet, past volume-only
+        boundaries: (the Hits of their first surface, t from O; the light L (k, 3) that reaches O on the way: lamps
+        passed, and the media's emission and single scattering; T (k, 3) what the media let through to the surface
+        or the world; the stacks (k, V) there, or None without media; shadow rays traced). inside: (k, V) the stacks
+        the rays start with, or None; throughput (k, 3) what they carry (the scattering's channel odds); seen: a
+        lightgroups.GroupLight of the k rays that receives L by source, or None."""
+        media = ctx.extra.get("media")
+        found = nearest_seen(ctx, O, D, t_max, kind)
+        T = np.ones((len(O), 3))
+        if media is None:
+            lamps = lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), seen, escaped=~found.hit)
+            return found, lamps, T, None, 0
+        n = len(O)
+        kind = np.broadcast_to(np.asarray(kind, np.int64), (n,))
+        hit, t, prim, u, v = np.zeros(n, bool), np.full(n, np.inf), np.zeros(n, np.int64), np.zeros(n), np.zeros(n)
+        L, inside, o, gone = np.zeros((n, 3)), inside.copy(), O.copy(), np.zeros(n)     # (o: each piece's start)
+        alive, step, shadow_rays = np.arange(n), found, 0
+        for piece in range(shadows.VOLUME_BOUNDS_MAX + 1):
+            # a. The stretch to the surface met (or on to the world): lamps, emission and scattering, seen through T.
+            end = np.where(step.hit, step.t, t_max[alive] - gone[alive])
+            stretch = media.along(inside[alive], o[alive], D[alive])
+            part = volume_.part_tally(seen, len(alive))
+            emitted = volumes.emitted(stretch, end)
+            lightgroups.add_emitted(part, np.arange(len(alive)), emitted, stretch)
+            light = lamps_seen(ctx, o[alive], D[alive], end, part, escaped=~step.hit, sigma=stretch) + emitted
+            if media.scatters:
+                scattered, rays = volume_.in_scattering(ctx, o[alive], D[alive], end, inside[alive],
+                                                        throughput[alive] * T[alive], pixel[alive], sample[alive],
+                                                        depth * (1 << 16) + piece * (1 << 24), depth,
+                                                        through_transparent, recorder, part)
+                light, shadow_rays = light + scattered, shadow_rays + rays
+            L[alive] += T[alive] * light
+            if seen is not None:
+                seen.add_rows(alive, part, T[alive])
+            T[alive] *= stretch.transmittance(np.where(step.hit, step.t, np.inf))
+            # b. The surfaces met: a volume-only boundary is crossed (into or out of its medium), any other is the hit.
+            met = np.flatnonzero(step.hit)
+            rows = alive[met]
+            surface = surface_at_hits(ctx.geometry, step.prim[met], step.u[met], step.v[met], o[rows], D[rows],
+                                      step.t[met])
+            cross = media.boundary[surface.material] & (piece < shadows.VOLUME_BOUNDS_MAX)
+            stop = rows[~cross]
+            hit[stop], t[stop], prim[stop] = True, gone[stop] + step.t[met][~cross], step.prim[met][~cross]
+            u[stop], v[stop] = step.u[met][~cross], step.v[met][~cross]
+            alive = rows[cross]
+            if len(alive) == 0:
+                break
+            inside[alive] = media.crossed(inside[alive], surface.material[cross], surface.backfacing[cross],
+                                          np.ones(len(alive), bool), media.objects_of(ctx.geometry, surface.prim[cross]))
+            # c. On from just past the boundary, for what is left of the ray.
+            P = spawn_ray(surface.I[cross], surface.Ng[cross], D[alive],
+                          shadows.error_bound(surface.I[cross], surface.vertices[cross]))
+            gone[alive] += np.einsum("ij,ij->i", P - o[alive], D[alive])
+            o[alive] = P
+            step = nearest_seen(ctx, o[alive], D[alive], t_max[alive] - gone[alive], kind[alive])
+        return type(found)(hit, t, prim, u, v, None), L, T, inside, shadow_rays
 
     def specular_rays(self, s, surface, shader, wo, throughput, glossy, transmission):
         """The child rays of every perfectly specular (singular) reflection and smooth glass closure: (hit index (k,), O (k, 3), D (k, 3), throughput

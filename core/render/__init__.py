@@ -571,16 +571,20 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
     Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c), any number of them (its
     volume stack is sparse); that a ray is in at most MAX_MEDIA of them at once there is said once in `warnings` where
-    a scene has more, and so is that Whitted's tracer renders no media. (prepare says which light group the emission
+    a scene has more, and so is that Whitted's tracer, which renders media on the Python reference, scatters once
+    (no Volume Bounces). (prepare says which light group the emission
     of overlapping media of different groups goes to.)"""
     media = ctx.extra.get("media")
     if media is None:
         return ""
     s = ctx.settings
     if s.integrator == "whitted":
-        note = "volumes: Whitted's tracer renders no media (the path and direct tracers do); they are left out"
-        if note not in warnings:
-            warnings.append(note)
+        # (Whitted's tracer renders media on the Python reference: Beer-Lambert, emission, single scattering)
+        if s.volume_bounces > 0 and media.scatters:
+            note = (f"volumes: Whitted's tracer scatters light in media once (it has no diffuse bounces, so no volume "
+                    f"bounces either): Volume Bounces {s.volume_bounces} renders as 0")
+            if note not in warnings:
+                warnings.append(note)
         return ""
     if media.scatters and s.denoising_features:
         # (features.in_media: Cycles' rule in expectation, with its unguided odds of passing a medium)
