@@ -70,17 +70,17 @@ TABLE_SETTINGS = [(0.3, 100.0, 1.0, 1.0, 1.0), (-0.05, 2000.0, 0.5, 3.0, 2.0), (
 def test_the_compiled_scattering_tables_are_the_references(settings):
     """core/materials/sky_tables.c computes each scattering model's table (32 x 16 here; the full 512 x 256 costs the
     reference 14 s) and the multiple-scattering atmosphere's transmittance table as the numpy reference does, step by
-    step in double: to a relative 1e-11 (measured: 2.6e-15, libm's and numpy's last bits; the transmittance to the
-    bit)."""
+    step in double: to a relative 1e-9 (measured: 2.6e-15 where numpy calls libm's exp; 8.5e-11 where numpy's own
+    AVX-512 exp serves it, a few ulps apart, summed over the march; the transmittance to the bit)."""
     xyz, transmittance = sky.compiled_multiple_scattering_xyz(*settings, width=32, height=16)
     reference = sky.multiple_scattering_xyz(*settings, width=32, height=16)
     assert reference.max() > 0.0
-    np.testing.assert_allclose(xyz, reference, rtol=1e-11, atol=0.0)
-    np.testing.assert_allclose(transmittance, sky.Atmosphere(*settings[2:]).precompute().table, rtol=1e-11, atol=0.0)
+    np.testing.assert_allclose(xyz, reference, rtol=1e-9, atol=0.0)
+    np.testing.assert_allclose(transmittance, sky.Atmosphere(*settings[2:]).precompute().table, rtol=1e-9, atol=0.0)
     reference = sky.single_scattering_xyz(*settings, width=32, height=16)
     assert reference.max() > 0.0
     np.testing.assert_allclose(sky.compiled_single_scattering_xyz(*settings, width=32, height=16), reference,
-                               rtol=1e-11, atol=0.0)
+                               rtol=1e-9, atol=0.0)
 
 
 def test_the_sun_is_where_the_wrapped_angles_put_it():
