@@ -308,13 +308,13 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
         original["__init__"](self, vertices, triangles, *args, **kwargs)
 
     def recording(query):
-        def traced(self, origins, directions, t_max):
+        def traced(self, origins, directions, t_max, times=None):
             o, d, t = to_f32(origins, directions, t_max)
             active = t >= 0.0           # (t_max < 0 would mark a ray Embree skips)
             kind = "shadow" if query == "occluded" or at["shadow"] else ("camera" if at["vertex"] < 0 else "bsdf")
             batches.append((query, np.ascontiguousarray(o[active]), np.ascontiguousarray(d[active]),
                             np.ascontiguousarray(t[active]), at["vertex"], kind))
-            return original[query](self, origins, directions, t_max)
+            return original[query](self, origins, directions, t_max, times)
         return traced
 
     # The compiled render traces its rays inside its C chunk; for the recording, the Python reference

@@ -211,9 +211,6 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .ao_bounces = (int)params->ao_bounces, .ao_factor = params->ao_factor, .ao_distance = params->ao_distance,
         .ao_additive_factor = params->ao_additive_factor, .ao_transmitter = &ao_transmitter,
     };
-    if (ds.light_passes)                        /* (what the media scatter along the camera rays: below) */
-        for (int64_t k = 0; k < BLOCK; k++)
-            for (int i = 0; i < LIGHT_CHANNELS; i++) work->lane_light[k][i] = 0.0;
     if (ds.features) camera_lane_features(params, b, H, work, ds.back);
     /* The path tracer's bounce limits; the direct tracer's through transparent surfaces: no bounces but those. */
     PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
@@ -222,7 +219,11 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
     PathLimits clear_only = {0, 0, 0, 0, (int)params->transparent_bounces, (int)params->roulette_from, 0};
     int64_t scattering_rays = 0;
     if (params->media != NULL && params->media->scatters != 0 && work != NULL) {
-        /* The light the media scatter towards the camera along its rays (volume.c), lane by lane. */
+        /* The light the media scatter towards the camera along its rays (volume.c), lane by lane (their light passes
+         * into work->lane_light, which render_chunk reads only where media scatter). */
+        if (ds.light_passes)
+            for (int64_t k = 0; k < BLOCK; k++)
+                for (int i = 0; i < LIGHT_CHANNELS; i++) work->lane_light[k][i] = 0.0;
         double one[3] = {1.0, 1.0, 1.0}, through[BLOCK][3];
         ds.everywhere = 1;
         /* (with Volume Bounces a camera ray's path goes on from where it scatters: volume.c volume_chain) */
@@ -324,12 +325,12 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
     default: {
         if (ds.light_passes) {
             clear_parts(H);
-            for (int64_t k = 0; k < BLOCK; k++)
-                for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
+            for (int64_t h = 0; h < H->m; h++)      /* (the hits' lanes' rows: the only ones written and read) */
+                for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[H->lane[h]][i] = 0.0;
         }
         if (ds.features) {                          /* (the camera's hits: features.c) */
-            for (int64_t k = 0; k < BLOCK; k++)
-                for (int i = 0; i < FEATURE_CHANNELS; i++) work->features[k][i] = 0.0;
+            for (int64_t h = 0; h < H->m; h++)
+                for (int i = 0; i < FEATURE_CHANNELS; i++) work->features[H->lane[h]][i] = 0.0;
             for (int64_t h = 0; h < H->m; h++) {
                 H->looking[h] = 1;
                 for (int c = 0; c < 3; c++) { H->feature_tp[3 * h + c] = 1.0; H->found[3 * h + c] = 0.0; }

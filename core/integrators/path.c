@@ -431,12 +431,18 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
     for (int64_t k = 0; k < BLOCK; k++) work->extra[k][0] = work->extra[k][1] = work->extra[k][2] = 0.0;
     if (work->groups != NULL)
         for (int64_t i = 0; i < BLOCK * 3 * ds->groups; i++) work->groups[i] = 0.0;
+    /* The features' and light passes' rows: every lane's for arrivals (chunk.c reads them all), else only the rows of
+     * H's lanes, the only ones the paths write and render_chunk reads (a hit's lane). */
     if (ds->features)
-        for (int64_t k = 0; k < BLOCK; k++)
-            for (int i = 0; i < FEATURE_CHANNELS; i++) work->features[k][i] = 0.0;
+        for (int64_t h = 0; h < (arrivals ? BLOCK : H->m); h++) {
+            double *row = work->features[arrivals ? h : H->lane[h]];
+            for (int i = 0; i < FEATURE_CHANNELS; i++) row[i] = 0.0;
+        }
     if (ds->light_passes)
-        for (int64_t k = 0; k < BLOCK; k++)
-            for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
+        for (int64_t h = 0; h < (arrivals ? BLOCK : H->m); h++) {
+            double *row = work->light[arrivals ? h : H->lane[h]];
+            for (int i = 0; i < LIGHT_CHANNELS; i++) row[i] = 0.0;
+        }
     for (int64_t h = 0; h < (arrivals ? 0 : H->m); h++) {
         /* (the throughput: what the media let through to the camera's hit, 1 without media: chunk.c block_hits) */
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->portal[h] = 0;
