@@ -8,7 +8,8 @@
  * transmittance (`march_track`, `march_transmittance`), the true coefficients at sampled points (`march_true_at`), a
  * uniform share where it has a hole (`march_share`), and the emission's control variate corrected at one point
  * (`march_emitted`). The same constants (STEPS_ACROSS, MAX_PIECES, MAX_DOUBLINGS, TRACKING_SAFETY, UNIFORM_SHARE,
- * KEY_GRID, EMISSION_DRAW) and the same sums as the Python, and each ray's walks drawn from the same stream (its key), so the kernels agree to rounding but where a ray's key differs. */
+ * KEY_GRID, EMISSION_DRAW) and the same sums as the Python, and each ray's walks drawn from the same stream (its
+ * key), so the kernels agree to rounding but where a ray's key differs. */
 
 /* The pieces of one ray O + s D over [0, t): `n` pieces (K + 2), their ends edges[0..n], each piece's extinction,
  * scattering and emission (3) and anisotropy-weighted scattering, and the optical depth tau (3) at each end. */

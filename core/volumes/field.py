@@ -7,8 +7,8 @@ sd->P, moved into the object's space, and into its texture space for Generated, 
 the closure's formulas (media.py) turn the inputs found there into sigma_a, sigma_s and emission.
 
 Along a ray such a medium is **marched** (`March`): the stretch of the ray inside the media's box is cut into pieces
-of at most `step` (the box's diagonal / STEPS_ACROSS), at most MAX_PIECES, and each
-piece takes the coefficients at its midpoint; before and after the box only the homogeneous media remain. On those
+of at most `step` (the box's diagonal / STEPS_ACROSS) within its fine box (`Field.fine`: a world medium's unpadded
+scene box), doubling in length away from it (`doublings`), at most MAX_PIECES, and each piece takes the coefficients at its midpoint; before and after the box only the homogeneous media remain. On those
 pieces every closed form of the homogeneous case holds piece by piece: the optical depth tau(s) is piecewise linear,
 T(s) = exp(-tau(s)), the emission sums e (1 - exp(-sigma d)) / sigma exp(-tau) over the pieces, and free flight
 inverts tau exactly. The march is the **proposal**: its estimates are corrected without bias (issue 35), as Cycles 5.0
