@@ -117,3 +117,32 @@ def test_a_heterogeneous_world_medium_makes_an_escaping_camera_rays_alpha_opaque
     media = Media.of([Material(np.zeros(3), "Default")], world)
     assert media.world_field is not None and media.world_field.unbounded and list(media.field_columns) == [-1]
     assert escaping_alpha(media) == 1.0 and escaping_alpha(None) == 0.0
+
+
+def test_a_heterogeneous_worlds_march_keeps_its_step_in_the_scenes_box_and_doubles_its_pieces_past_it():
+    """A world medium is marched in the scene's box padded by WORLD_PAD diagonals; the pieces keep the step (the
+    scene box's diagonal / STEPS_ACROSS, at most) inside the scene's own box and double in length past it, so a ray
+    escaping from the scene's middle crosses the padding in about log2(padding / step) pieces, not MAX_PIECES; and
+    the optical depth of the density 0.3 (2.9 - z) on them (the ratio-tracking control) stays exact."""
+    import types
+    from core.volumes.field import MAX_PIECES, March, doublings
+    from core.volumes.media import world_field_of
+    box = types.SimpleNamespace(origin=np.zeros(3), bounds=lambda: (np.array([-1.0, -1.0, 0.0]), np.ones(3)))
+    field = world_field_of([("ABSORPTION", 1.0, {"color": COLOR, "density": falling()})], box)
+    O, D = np.array([[0.0, 0.0, 0.5]]), np.array([[0.0, 0.0, 1.0]])
+    zero = np.zeros((1, 3))
+    march = March([field], np.ones((1, 1)), (zero, zero, zero, np.zeros(1)), O, D, np.array([np.inf]))
+    edges = march.edges[0]
+    inner = np.diff(edges[1:-1])
+    step = field.step
+    fine = inner[edges[1:-2] < 0.5 - 1e-12]                     # (the pieces within the scene box: z < 1)
+    np.testing.assert_allclose(fine, 0.5 / np.ceil(0.5 / step), rtol=1e-9)   # (equal, at most the step)
+    padding = field.high[2] - 1.0
+    assert march.pieces[0] == len(fine) + doublings(np.array([padding]), step)[0] < MAX_PIECES // 4
+    np.testing.assert_allclose(inner[len(fine):-1], step * 2.0 ** np.arange(len(inner) - len(fine) - 1), rtol=1e-9)
+    # (the control's optical depth to the 4th doubled edge, whose pieces and their neighbours are below the kink
+    # at z = 2.9: exact for the linear density, SLOPE (TOP - z) integrated from z = 0.5)
+    s = 0.5 + step * 15.0
+    depth = march.control_depth(np.array([s]))[0][0]
+    integral = SLOPE * ((TOP - 0.5) ** 2 - (TOP - 0.5 - s) ** 2) / 2.0
+    np.testing.assert_allclose(depth, integral * (1.0 - COLOR), rtol=1e-9)

@@ -358,6 +358,8 @@
 #define STEPS_ACROSS 100
 /* the most pieces a march cuts one stretch of a ray into (core.volumes.field) */
 #define MAX_PIECES 256
+/* the most pieces doubling in length a march cuts either side of the fine box (field.py doublings) (core.volumes.field) */
+#define MAX_DOUBLINGS 60
 /* the number of a ray's stream that places its emission's correction point (past any ratio-tracking walk's) (core.volumes.field) */
 #define EMISSION_DRAW 1099511627776
 /* the odds that free flight in a heterogeneous medium draws its distance uniformly in the media's box (field.py March.uniform_share) (core.volumes.field) */
@@ -1363,6 +1365,8 @@ struct MediaTables {
     double field_low[3];                    /* the box of all of them (where a march cuts pieces) */
     double field_high[3];
     double field_step;                      /* the march's longest piece (the smallest of their boxes' diagonals / STEPS_ACROSS) */
+    double field_fine_low[3];               /* the box of their fine boxes (Field.fine: where pieces keep field_step; past it they double) */
+    double field_fine_high[3];
     const int32_t *groups;                  /* (V,) each column's light group (lightgroups.LightGroups.media; -1: none), or NULL: no light groups (compiled.py sets it) */
 };
 
@@ -1425,7 +1429,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(7906311474424889977);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(219872329779630044);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(395041555413493401);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(8872374407029382170);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;
 }

@@ -2,13 +2,14 @@
  *
  * A heterogeneous medium's node graph (graph.c run_program) runs at points inside it (`field_at`: Field.at), and a
  * ray's stretch through the media is cut into pieces (`march_of`: field.py March): piece 0 before the box of the
- * heterogeneous media, at most MAX_PIECES pieces of at most field_step inside it (each with its midpoint's
- * coefficients), the last after it. The march is the proposal (free flight, its pdfs); its estimates are made
- * unbiased as field.py's: residual ratio tracking for every transmittance (`march_track`, `march_transmittance`),
- * the true coefficients at sampled points (`march_true_at`), a uniform share where it has a hole (`march_share`),
- * and the emission's control variate corrected at one point (`march_emitted`). The same constants (STEPS_ACROSS,
- * MAX_PIECES, TRACKING_SAFETY, UNIFORM_SHARE, KEY_GRID, EMISSION_DRAW) and the same sums as the Python, and each
- * ray's walks drawn from the same stream (its key), so the kernels agree to rounding but where a ray's key differs. */
+ * heterogeneous media, at most MAX_PIECES pieces inside it (each with its midpoint's coefficients: of at most
+ * field_step within the fine box, doubling in length away from it), the last after it. The march is the proposal
+ * (free flight, its pdfs); its estimates are made unbiased as field.py's: residual ratio tracking for every
+ * transmittance (`march_track`, `march_transmittance`), the true coefficients at sampled points (`march_true_at`), a
+ * uniform share where it has a hole (`march_share`), and the emission's control variate corrected at one point
+ * (`march_emitted`). The same constants (STEPS_ACROSS, MAX_PIECES, MAX_DOUBLINGS, TRACKING_SAFETY, UNIFORM_SHARE,
+ * KEY_GRID, EMISSION_DRAW) and the same sums as the Python, and each ray's walks drawn from the same stream (its
+ * key), so the kernels agree to rounding but where a ray's key differs. */
 
 /* The pieces of one ray O + s D over [0, t): `n` pieces (K + 2), their ends edges[0..n], each piece's extinction,
  * scattering and emission (3) and anisotropy-weighted scattering, and the optical depth tau (3) at each end. */
@@ -366,6 +367,14 @@ static void march_fields_emission(const March *m, double x, double *emission)
     for (int c = 0; c < 3; c++) emission[c] = m->hom_e[c] + se[c];
 }
 
+/* field.py doublings: the fewest pieces doubling from step (step, 2 step, 4 step, ...) that cover the length gap. */
+INLINE int doublings(double gap, double step)
+{
+    int k = 0;
+    for (int i = 0; i < MAX_DOUBLINGS; i++) k += step * (ldexp(1.0, k) - 1.0) < gap;
+    return k;
+}
+
 /* field.py March for one ray O + s D (3 each) over [0, t) (inf: to the world) in the media `stack`, whose
  * homogeneous part is sigma_t, sigma_s, emission (3) and g (Media.along), into m. */
 static void march_of(const MediaTables *media, const VolumeStack *stack, const double *O, const double *D, double t,
@@ -395,12 +404,31 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
     double b = far > a ? far : a;
     b = b < t ? b : t;
     b = isfinite(b) ? b : a;
-    /* 2. The pieces inside the box, their midpoints' coefficients (the homogeneous media's added). */
-    double pieces = ceil((b - a) / media->field_step);
-    pieces = pieces < 1.0 ? 1.0 : (pieces > (double)MAX_PIECES ? (double)MAX_PIECES : pieces);
-    pieces = pieces != pieces ? 1.0 : pieces;
-    int K = (int)pieces;
-    double length = (b - a) / pieces, gs_h = g * ((sigma_s[0] + sigma_s[1]) + sigma_s[2]);
+    /* 2. The pieces inside the box, their midpoints' coefficients (the homogeneous media's added): of field_step
+     *    within the fine box [c, d), doubling away from it before and after (a world medium's padding). */
+    double step = media->field_step, c = a, d = b;
+    near = -INFINITY;
+    far = INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double inverse = 1.0 / D[k];
+        double t0 = (media->field_fine_low[k] - O[k]) * inverse, t1 = (media->field_fine_high[k] - O[k]) * inverse;
+        double lo = t0 < t1 ? t0 : t1, hi = t0 > t1 ? t0 : t1;
+        lo = lo != lo ? -INFINITY : lo;
+        hi = hi != hi ? INFINITY : hi;
+        near = lo > near ? lo : near;
+        far = hi < far ? hi : far;
+    }
+    c = near > a ? near : a;
+    c = c < b ? c : b;
+    d = far > c ? far : c;
+    d = d < b ? d : b;
+    int before = doublings(c - a, step), after = doublings(b - d, step);
+    double pieces = ceil((d - c) / step), fewest = before + after > 0 ? 0.0 : 1.0;
+    double most = (double)(MAX_PIECES - before - after);
+    pieces = pieces < fewest ? fewest : (pieces > most ? most : pieces);
+    pieces = pieces != pieces ? fewest : pieces;
+    int middle = (int)pieces, K = before + middle + after;
+    double length = middle > 0 ? (d - c) / pieces : 0.0, gs_h = g * ((sigma_s[0] + sigma_s[1]) + sigma_s[2]);
     double diagonal = 0.0;                         /* (the box's: the world's probes after it) */
     for (int c = 0; c < 3; c++) {
         double side = media->field_high[c] - media->field_low[c];
@@ -409,7 +437,11 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
     diagonal = isfinite(diagonal) ? sqrt(diagonal) : 0.0;
     m->n = K + 2;
     m->edges[0] = 0.0;
-    for (int j = 0; j < K; j++) m->edges[1 + j] = a + length * (double)j;
+    for (int j = 0; j < K; j++)
+        m->edges[1 + j] = j == 0 ? a
+                          : j < before ? c - step * (ldexp(1.0, before - j) - 1.0)
+                          : j < before + middle ? c + length * (double)(j - before)
+                          : d + step * (ldexp(1.0, j - before - middle) - 1.0);
     m->edges[K + 1] = b;
     m->edges[K + 2] = t;
     for (int j = 0; j < K + 2; j++) {
@@ -418,7 +450,10 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
          * the box, before it, or leaves it, after it) */
         int outer = (j == 0 && a > 0.0) || (j == K + 1 && t - b > 0.0);
         if ((j >= 1 && j <= K && b > a) || outer) {
-            double mid = j == 0 ? a : j == K + 1 ? b : a + length * ((double)(j - 1) + 0.5), P[3];
+            int fine = j - 1 >= before && j - 1 < before + middle;
+            double mid = j == 0 ? a : j == K + 1 ? b
+                         : fine ? c + length * ((double)(j - 1 - before) + 0.5)
+                         : 0.5 * (m->edges[j] + m->edges[j + 1]), P[3];
             for (int c = 0; c < 3; c++) P[c] = O[c] + mid * D[c];
             for (int i = 0; i < m->in_n; i++) {
                 const VolumeField *f = m->in[i];

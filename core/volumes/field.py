@@ -7,8 +7,8 @@ sd->P, moved into the object's space, and into its texture space for Generated, 
 the closure's formulas (media.py) turn the inputs found there into sigma_a, sigma_s and emission.
 
 Along a ray such a medium is **marched** (`March`): the stretch of the ray inside the media's box is cut into pieces
-of at most `step` (the box's diagonal / STEPS_ACROSS), at most MAX_PIECES, and each
-piece takes the coefficients at its midpoint; before and after the box only the homogeneous media remain. On those
+of at most `step` (the box's diagonal / STEPS_ACROSS) within its fine box (`Field.fine`: a world medium's unpadded
+scene box), doubling in length away from it (`doublings`), at most MAX_PIECES, and each piece takes the coefficients at its midpoint; before and after the box only the homogeneous media remain. On those
 pieces every closed form of the homogeneous case holds piece by piece: the optical depth tau(s) is piecewise linear,
 T(s) = exp(-tau(s)), the emission sums e (1 - exp(-sigma d)) / sigma exp(-tau) over the pieces, and free flight
 inverts tau exactly. The march is the **proposal**: its estimates are corrected without bias (issue 35), as Cycles 5.0
@@ -41,6 +41,8 @@ from .tracking import ray_keys, stream
 # stretch of a ray is cut into (media.c's March reads the same two).
 STEPS_ACROSS = schema.constant("STEPS_ACROSS", 100, "pieces a march cuts the diagonal of the media's box into")
 MAX_PIECES = schema.constant("MAX_PIECES", 256, "the most pieces a march cuts one stretch of a ray into")
+MAX_DOUBLINGS = schema.constant("MAX_DOUBLINGS", 60, "the most pieces doubling in length a march cuts either side "
+                                "of the fine box (field.py doublings)")
 # The most points a heterogeneous medium's graph runs at in one go (its registers: points x the program's registers).
 POINTS_AT_ONCE = 1 << 16
 # The factor on a piece's second difference of sigma_t (its neighbours' midpoints) that makes its majorant.
@@ -146,13 +148,15 @@ class Field:
     node's, Volume Info's), four floats each after the coordinates; origin: (3,) the
     world point the render's coordinates are relative to (geometry.origin); bounds: (low (3,), high (3,)) the
     camera-relative box of its triangles (the march's extent and step); step: the march's longest piece (None: the
-    box's diagonal / STEPS_ACROSS); unbounded: the world's medium (`world_field`), which every ray is in and which
+    box's diagonal / STEPS_ACROSS); fine: (low (3,), high (3,)) the box within `bounds` where the march keeps pieces
+    of `step`, past which they double in length (a world medium's unpadded scene box; None: `bounds`); unbounded:
+    the world's medium (`world_field`), which every ray is in and which
     goes on past its box (March: held at its value where the ray leaves the box); info: (W,) float64 the Object Info
     row its graph reads (a medium kept per object, media.Media.of: that object's row of geometry.instance_info) and
     random its Object Info Random; None: Location the placement of `space`, every other column and Random 0."""
 
     def __init__(self, entries: list, space=None, origin=None, bounds=None, step=None, unbounded=False, info=None,
-                 random=0.0):
+                 random=0.0, fine=None):
         from ..materials import graph as graph_
         self.entries = entries
         self.unbounded = bool(unbounded)
@@ -173,6 +177,9 @@ class Field:
         self.low, self.high = ((np.full(3, -np.inf), np.full(3, np.inf)) if bounds is None
                                else (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)))
         diagonal = float(np.linalg.norm(self.high - self.low)) if np.isfinite(self.high - self.low).all() else 1.0
+        # (the box within it where a march keeps pieces of `step`, past which they double: March)
+        self.fine_low, self.fine_high = ((self.low, self.high) if fine is None
+                                         else (np.asarray(fine[0], np.float64), np.asarray(fine[1], np.float64)))
         self.step = max(diagonal, 1e-6) / STEPS_ACROSS if step is None else float(step)
         # One shader "node" per closure, its linked inputs the slots the program writes (graph.Compiler.compile).
         self.slots, nodes = [], []
@@ -283,6 +290,7 @@ class Field:
             placed = np.linalg.inv(np.vstack([made.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]
             made.linear, made.placement = placed[:, :3], placed[:, 3]
         made.low, made.high = (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64))
+        made.fine_low, made.fine_high = made.low, made.high
         made.step = (max(float(np.linalg.norm(made.high - made.low)), 1e-6) / STEPS_ACROSS if step is None
                      else float(step))
         return made
@@ -334,6 +342,16 @@ class Field:
             yield k, part, values
 
 
+def doublings(gap: np.ndarray, step: float) -> np.ndarray:
+    """The fewest pieces (n,) int64 doubling from `step` (step, 2 step, 4 step, ...) that cover the lengths gap (n,)
+    float64: the least k with step (2^k - 1) >= gap (0 for no gap; C: field.c doublings)."""
+    gap = np.asarray(gap, np.float64)
+    k = np.zeros(len(gap), np.int64)
+    for _ in range(MAX_DOUBLINGS):
+        k += step * (np.exp2(k) - 1.0) < gap
+    return k
+
+
 def slope_integral(u: np.ndarray) -> np.ndarray:
     """g(u) = integral over y in [0, 1] of (y - 1/2) exp(-u y) (any shape, float64): a piece's linear part's weight
     under Beer-Lambert, u its optical depth; the series -u/12 + u^2/24 - u^3/80 below 1e-3 (C: field.c
@@ -370,17 +388,38 @@ class March:
         b = np.clip(far, a, t)
         b = np.where(np.isfinite(b), b, a)
         # 2. The pieces inside the box, their midpoints' coefficients.
-        pieces = np.clip(np.ceil((b - a) / step), 1, MAX_PIECES).astype(np.int64)
+        # Pieces of `step` within the fine box (Field.fine: the scene's own box, where the media's detail is), and
+        # outside it pieces that double from `step` away from it (a world medium's padding: graded_pieces).
+        fine_low = np.min([f.fine_low for f in fields], axis=0)
+        fine_high = np.max([f.fine_high for f in fields], axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f0, f1 = (fine_low - O) * inverse, (fine_high - O) * inverse
+        c = np.clip(np.nan_to_num(np.minimum(f0, f1), nan=-np.inf).max(axis=1), a, b)
+        d = np.clip(np.nan_to_num(np.maximum(f0, f1), nan=np.inf).min(axis=1), c, b)
+        before, after = doublings(c - a, step), doublings(b - d, step)
+        middle = np.clip(np.ceil((d - c) / step), np.where(before + after > 0, 0, 1),
+                         MAX_PIECES - before - after).astype(np.int64)
+        pieces = before + middle + after
         K = int(pieces.max()) if n else 1
-        j = np.arange(K)
-        length = (b - a) / pieces
-        within = j[None, :] < pieces[:, None]
-        inner = np.where(within, a[:, None] + length[:, None] * j[None, :], b[:, None])
+        j = np.arange(K)[None, :]
+        length = np.where(middle > 0, (d - c) / np.maximum(middle, 1), 0.0)[:, None]
+        within = j < pieces[:, None]
+        # (piece j's start and midpoint: before the fine box c - step (2^(before - j) - 1), a for the first; in it
+        # c + length (j - before); after it d + step (2^(j - before - middle) - 1))
+        k_in, k_after = j - before[:, None], j - (before + middle)[:, None]
+        start = np.where(j < before[:, None], c[:, None] - step * (np.exp2(np.maximum(before[:, None] - j, 0)) - 1.0),
+                         np.where(k_after < 0, c[:, None] + length * k_in,
+                                  d[:, None] + step * (np.exp2(np.maximum(k_after, 0)) - 1.0)))
+        start = np.where(j == 0, a[:, None], start)
+        inner = np.where(within, start, b[:, None])
+        end = np.concatenate([inner[:, 1:], b[:, None]], axis=1)
+        end = np.where(j + 1 < pieces[:, None], end, b[:, None])
+        mids = np.where((k_in >= 0) & (k_after < 0), c[:, None] + length * (k_in + 0.5), 0.5 * (inner + end))
         self.edges = np.concatenate([np.zeros((n, 1)), inner, b[:, None], t[:, None]], axis=1)
         sig_a, sig_s, emit, gs = (np.zeros((n, K, 3)), np.zeros((n, K, 3)), np.zeros((n, K, 3)), np.zeros((n, K)))
         rows, cols = np.nonzero(within & (b > a)[:, None])
         if len(rows):
-            mid = a[rows] + length[rows] * (cols + 0.5)
+            mid = mids[rows, cols]
             P = O[rows] + mid[:, None] * D[rows]
             for f, field in enumerate(fields):
                 count = counts[rows, f].astype(np.float64)

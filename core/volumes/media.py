@@ -432,13 +432,16 @@ class Media:
         holds them all and the march's step (the smallest of theirs), as field.py March reads them."""
         from . import field as field_
         if not self.fields:
-            return dict(fields=None, field_low=np.zeros(3), field_high=np.zeros(3), field_step=1.0)
+            return dict(fields=None, field_low=np.zeros(3), field_high=np.zeros(3), field_step=1.0,
+                        field_fine_low=np.zeros(3), field_fine_high=np.zeros(3))
         chain, shared = None, {}                # (the fields of one program share its tables: per_object)
         for field, column in reversed(list(zip(self.fields, self.field_columns))):
             chain = field_.field_record(field, int(column), chain, shared)
         return dict(fields=chain, field_low=np.min([f.low for f in self.fields], axis=0),
                     field_high=np.max([f.high for f in self.fields], axis=0),
-                    field_step=min(f.step for f in self.fields))
+                    field_step=min(f.step for f in self.fields),
+                    field_fine_low=np.min([f.fine_low for f in self.fields], axis=0),
+                    field_fine_high=np.max([f.fine_high for f in self.fields], axis=0))
 
     def start(self, n: int) -> np.ndarray:
         """The stacks (n, V) int16 of rays that start in no mesh's medium (the world's is always there). A stack
@@ -557,6 +560,9 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
     ("field_low", F64, 3, "the box of all of them (where a march cuts pieces)"),
     ("field_high", F64, 3, ""),
     ("field_step", F64, "the march's longest piece (the smallest of their boxes' diagonals / STEPS_ACROSS)"),
+    ("field_fine_low", F64, 3, "the box of their fine boxes (Field.fine: where pieces keep field_step; past it they "
+                               "double)"),
+    ("field_fine_high", F64, 3, ""),
     ("groups", ptr(I32), "(V,) each column's light group (lightgroups.LightGroups.media; -1: none), or NULL: no "
                          "light groups (compiled.py sets it)"),
 ])
@@ -922,21 +928,26 @@ WORLD_MEDIUM_NOTE = (f"volumes: the world's heterogeneous medium is marched with
 
 
 def world_bounds(geometry) -> tuple:
-    """The camera-relative box (low (3,), high (3,) float64) Primer marches a heterogeneous world medium in, and the
-    march's step float: the box of the scene's triangles and the camera (the point 0) padded by WORLD_PAD times its
-    diagonal on each side, within Cycles' box +-WORLD_REACH around the world's origin; the step the unpadded box's
-    diagonal / STEPS_ACROSS (the diagonal at least 1 cm). No geometry: the box +-WORLD_REACH, the step 0.1."""
+    """The camera-relative box (low (3,), high (3,) float64) Primer marches a heterogeneous world medium in, the
+    march's step float and the fine box (low (3,), high (3,)) within it where the pieces keep that step (past it
+    they double: field.py March): the box of the scene's triangles and the camera (the point 0) padded by WORLD_PAD
+    times its diagonal on each side, within Cycles' box +-WORLD_REACH around the world's origin; the step the
+    unpadded box's diagonal / STEPS_ACROSS (the diagonal at least 1 cm); the fine box the unpadded one (within the
+    padded). No geometry: the box +-WORLD_REACH, the step 0.1, the fine box the box."""
     from .field import STEPS_ACROSS
     origin = np.zeros(3) if geometry is None else np.asarray(geometry.origin, np.float64)
     reach_low, reach_high = -origin - WORLD_REACH, -origin + WORLD_REACH
     if geometry is None:
-        return reach_low, reach_high, 0.1
+        return reach_low, reach_high, 0.1, (reach_low, reach_high)
     low, high = (np.asarray(x, np.float64) for x in geometry.bounds())
     low, high = np.minimum(low, 0.0), np.maximum(high, 0.0)
     diagonal = max(float(np.linalg.norm(high - low)), 1e-2)
+    scene_low, scene_high = low, high
     low, high = low - WORLD_PAD * diagonal, high + WORLD_PAD * diagonal
     low, high = np.maximum(low, reach_low), np.minimum(high, reach_high)
-    return low, np.maximum(high, low), diagonal / STEPS_ACROSS
+    high = np.maximum(high, low)
+    fine_low = np.clip(scene_low, low, high)
+    return low, high, diagonal / STEPS_ACROSS, (fine_low, np.clip(scene_high, fine_low, high))
 
 
 def world_field_of(world_volume: list, geometry=None):
@@ -945,10 +956,10 @@ def world_field_of(world_volume: list, geometry=None):
     Object, Generated and Position coordinates all the world point P: svm/tex_coord.h, a background's Generated is
     its P), marched in `world_bounds`."""
     from . import field as field_
-    low, high, step = world_bounds(geometry)
+    low, high, step, fine = world_bounds(geometry)
     space = (np.eye(4)[:3], np.full(3, 0.5), np.full(3, 0.5))      # (generated = (P - 0.5) / 1 + 0.5 = P)
     return field_.Field(world_volume, space, None if geometry is None else geometry.origin, (low, high), step,
-                        unbounded=True)
+                        unbounded=True, fine=fine)
 
 
 def transmittance(sigma_t: np.ndarray, t: np.ndarray) -> np.ndarray:
