@@ -375,6 +375,24 @@ INLINE int doublings(double gap, double step)
     return k;
 }
 
+/* The span [near, far] of the line O + t D (3 each) inside the box low .. high (3 each), by slabs: near > far where
+ * it misses; a slab the line runs along (0 x inf) is no bound. */
+INLINE void box_span(const double *O, const double *D, const double *low, const double *high, double *near,
+                     double *far)
+{
+    *near = -INFINITY;
+    *far = INFINITY;
+    for (int c = 0; c < 3; c++) {
+        double inverse = 1.0 / D[c];
+        double t0 = (low[c] - O[c]) * inverse, t1 = (high[c] - O[c]) * inverse;
+        double lo = t0 < t1 ? t0 : t1, hi = t0 > t1 ? t0 : t1;
+        lo = lo != lo ? -INFINITY : lo;
+        hi = hi != hi ? INFINITY : hi;
+        *near = lo > *near ? lo : *near;
+        *far = hi < *far ? hi : *far;
+    }
+}
+
 /* field.py March for one ray O + s D (3 each) over [0, t) (inf: to the world) in the media `stack`, whose
  * homogeneous part is sigma_t, sigma_s, emission (3) and g (Media.along), into m. */
 static void march_of(const MediaTables *media, const VolumeStack *stack, const double *O, const double *D, double t,
@@ -389,16 +407,8 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
         m->in_count[m->in_n++] = count;
     }
     /* 1. Where the ray is in the media's box: [a, b) within [0, t). */
-    double near = -INFINITY, far = INFINITY;
-    for (int c = 0; c < 3; c++) {
-        double inverse = 1.0 / D[c];
-        double t0 = (media->field_low[c] - O[c]) * inverse, t1 = (media->field_high[c] - O[c]) * inverse;
-        double lo = t0 < t1 ? t0 : t1, hi = t0 > t1 ? t0 : t1;
-        lo = lo != lo ? -INFINITY : lo;
-        hi = hi != hi ? INFINITY : hi;
-        near = lo > near ? lo : near;
-        far = hi < far ? hi : far;
-    }
+    double near, far;
+    box_span(O, D, media->field_low, media->field_high, &near, &far);
     double a = near > 0.0 ? near : 0.0;
     a = a < t ? a : t;
     double b = far > a ? far : a;
@@ -407,17 +417,7 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
     /* 2. The pieces inside the box, their midpoints' coefficients (the homogeneous media's added): of field_step
      *    within the fine box [c, d), doubling away from it before and after (a world medium's padding). */
     double step = media->field_step, c = a, d = b;
-    near = -INFINITY;
-    far = INFINITY;
-    for (int k = 0; k < 3; k++) {
-        double inverse = 1.0 / D[k];
-        double t0 = (media->field_fine_low[k] - O[k]) * inverse, t1 = (media->field_fine_high[k] - O[k]) * inverse;
-        double lo = t0 < t1 ? t0 : t1, hi = t0 > t1 ? t0 : t1;
-        lo = lo != lo ? -INFINITY : lo;
-        hi = hi != hi ? INFINITY : hi;
-        near = lo > near ? lo : near;
-        far = hi < far ? hi : far;
-    }
+    box_span(O, D, media->field_fine_low, media->field_fine_high, &near, &far);
     c = near > a ? near : a;
     c = c < b ? c : b;
     d = far > c ? far : c;
