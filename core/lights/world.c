@@ -53,15 +53,20 @@ INLINE void world_radiance_uv(const WorldTables *w, double u, double v, double *
     for (int c = 0; c < 3; c++) out[c] *= w->strength;
 }
 
-/* WorldLight.pdf at texture coordinates u, v of a direction whose sin theta is given: f / (total 2 pi^2 sin theta)
- * of its map cell. */
+/* WorldLight.pdf of a direction in map cell (x, y) whose sin theta is given: f / (total 2 pi^2 sin theta). */
+INLINE double world_cell_pdf(const WorldTables *w, int64_t x, int64_t y, double sin_theta)
+{
+    return sin_theta > 0.0 ? w->map[y * (int64_t)w->map_width + x] / (w->total * 2.0 * PI * PI * sin_theta) : 0.0;
+}
+
+/* WorldLight.pdf at texture coordinates u, v of a direction whose sin theta is given (its map cell's). */
 INLINE double world_pdf_uv(const WorldTables *w, double u, double v, double sin_theta)
 {
     int64_t mw = (int64_t)w->map_width, mh = (int64_t)w->map_height;
     int64_t x = (int64_t)(u * (double)mw), y = (int64_t)(v * (double)mh);
     x = x < 0 ? 0 : (x > mw - 1 ? mw - 1 : x);
     y = y < 0 ? 0 : (y > mh - 1 ? mh - 1 : y);
-    return sin_theta > 0.0 ? w->map[y * mw + x] / (w->total * 2.0 * PI * PI * sin_theta) : 0.0;
+    return world_cell_pdf(w, x, y, sin_theta);
 }
 
 /* World.radiance: the radiance arriving from direction D (world space). */
@@ -122,7 +127,7 @@ INLINE void sample_world(const WorldTables *w, const double *u, LightSample *out
     world_direction(uu, vv, local, &sin_theta);
     const double *R = w->rotation;                       /* back from texture space: R^T */
     for (int c = 0; c < 3; c++) out->L[c] = R[c] * local[0] + R[3 + c] * local[1] + R[6 + c] * local[2];
-    double pdf = sin_theta > 0.0 ? w->map[y * mw + x] / (w->total * 2.0 * PI * PI * sin_theta) : 0.0;
+    double pdf = world_cell_pdf(w, x, y, sin_theta);
     out->pdf = pdf;
     out->strength = pdf > 0.0 ? 1.0 / pdf : 0.0;
     out->distance = INFINITY;
@@ -145,6 +150,13 @@ INLINE int world_hit(const LightRecord *light, const double *O, const double *D,
 {
     (void)light; (void)O; (void)D; (void)t_max; (void)out;
     return 0;
+}
+
+/* A map row's running sums cdf (w + 1) divided by their total `sum` where it is positive (world.running_sums). */
+INLINE void normalise_sums(double *cdf, int64_t w, double sum)
+{
+    double scale = sum > 0.0 ? sum : 1.0;
+    for (int64_t j = 0; j <= w; j++) cdf[j] /= scale;
 }
 
 /* world.WorldLight.of's map, rows row_start .. row_end - 1: each cell's value linear between the texel centres of
@@ -184,9 +196,7 @@ static void world_map_rows(const WorldMapArgs *a)
             if (cdf != NULL) cdf[j + 1] = sum;
         }
         a->totals[i] = sum;
-        if (cdf == NULL) continue;
-        double scale = sum > 0.0 ? sum : 1.0;
-        for (int64_t j = 0; j <= w; j++) cdf[j] /= scale;
+        if (cdf != NULL) normalise_sums(cdf, w, sum);
     }
     free(left);
     free(weight);
@@ -207,7 +217,6 @@ static void compensated_rows(const CompensatedMapArgs *a)
             cdf[j + 1] = sum;
         }
         a->totals[i] = sum;
-        double scale = sum > 0.0 ? sum : 1.0;
-        for (int64_t j = 0; j <= w; j++) cdf[j] /= scale;
+        normalise_sums(cdf, w, sum);
     }
 }
