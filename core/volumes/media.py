@@ -767,19 +767,7 @@ def per_object(entries: list, space, geometry, row: int) -> Optional[list]:
     constant = all(link.node.kind in POINTLESS_NODES for link in _links(entries))
     if not reads and constant:
         return None
-    objects = len(geometry.instance_random)
-    low, high = np.full((objects, 3), np.inf), np.full((objects, 3), -np.inf)
-    loose = False
-    for prims, triangles in triangle_chunks(geometry):         # (one pass: each object's box of these triangles)
-        mine = np.flatnonzero(triangles.material == row)
-        if len(mine):
-            owner = np.repeat(geometry.owners(prims[mine]), 3)
-            corners = triangles.corners[mine].reshape(-1, 3)
-            keep = owner >= 0
-            loose |= not keep.all()
-            np.minimum.at(low, owner[keep], corners[keep])
-            np.maximum.at(high, owner[keep], corners[keep])
-    owners = np.flatnonzero(np.isfinite(low[:, 0]))
+    owners, low, high, loose = object_boxes(geometry, [row])[row]    # (low, high (j, 3): the owners' boxes)
     if len(owners) == 0:
         return [] if reads else None
     if not reads and (loose or len(owners) < 2):
@@ -811,10 +799,10 @@ def per_object(entries: list, space, geometry, row: int) -> Optional[list]:
     if not constant:
         # (each object's field in its own box, marched in pieces as the material's one field would be: the box of all
         # these objects' triangles / STEPS_ACROSS, not each small box's, which would cut every ray finer)
-        step = max(float(np.linalg.norm(high[owners].max(axis=0) - low[owners].min(axis=0))), 1e-6) / field_.STEPS_ACROSS
+        step = max(float(np.linalg.norm(high.max(axis=0) - low.min(axis=0))), 1e-6) / field_.STEPS_ACROSS
         return [(owners[group == g], NOTHING,
                  field.placed(info[first[g]], float(random[first[g]]),
-                              (low[owners[group == g]].min(axis=0), high[owners[group == g]].max(axis=0)),
+                              (low[group == g].min(axis=0), high[group == g].max(axis=0)),
                               to_object[first[g]], step, (texspace[first[g], :3], texspace[first[g], 3:])))
                 for g in order]
     fixed = [[] for _ in order]                        # (each group's closures, their linked inputs read there)
