@@ -813,9 +813,10 @@ def load_image(image, reader: NodeReader, node):
     if source == "MOVIE":                           # decoded by Blender into scene-linear values (addon/movie.py)
         _IMAGES[key] = _image_or_warning(image, reader, node, False, frame=frame)
         return _IMAGES[key]
-    if space != "sRGB" and space not in LINEAR_SPACES:
+    raw = from_float_buffer(image)                  # (Blender made it scene-linear: no decoding after lookup)
+    if space != "sRGB" and space not in LINEAR_SPACES and not raw:
         reader.warn(node, f"image '{image.name}' is in colour space {space}; Primer uses its numbers as linear")
-    srgb = space == "sRGB"
+    srgb = space == "sRGB" and not raw
     if source == "TILED":
         tiles = {}
         for tile in image.tiles:
@@ -836,6 +837,32 @@ def load_image(image, reader: NodeReader, node):
         return None
     _IMAGES[key] = _image_or_warning(image, reader, node, srgb, frame=frame if source == "SEQUENCE" else None)
     return _IMAGES[key]
+
+
+def from_float_buffer(image) -> bool:
+    """Whether Cycles reads an image from Blender's float buffer (its BlenderImageLoader with a float ImBuf): a packed
+    or generated single image (Cycles' sync calls such images builtin) that Blender holds in float (a 16-bit PNG, an
+    EXR, ...; image.is_float, which loads it). Blender has made that buffer scene-linear and associated (its colour
+    space and alpha mode applied), and Cycles copies it as float, with no decoding of its own."""
+    if image.source not in ("FILE", "GENERATED") or (image.source == "FILE" and image.packed_file is None):
+        return False
+    try:
+        return bool(image.is_float)
+    except (AttributeError, RuntimeError, ReferenceError):
+        return False
+
+
+def load_alpha_rule(image) -> str:
+    """How this Blender's Cycles associates an image's alpha when it loads it: alpha_rule's "ignore" and "straight"
+    as they are; its "associate" in Blender 4.2 .. 5.0 too (associate what the file stores straight), but from 5.1
+    on Cycles goes by the Alpha mode alone (ImageMetaData's is_unassociated_alpha, set from the alpha type Blender
+    passes): "associate always" for Straight (an EXR's associated colours, and Blender's associated float buffer,
+    times alpha once more) and "straight" for Premultiplied (a PNG's straight colours kept). Measured against Cycles
+    5.2.3: a 16-bit PNG set to Premultiplied, an EXR set to Straight, a packed 16-bit PNG (Straight)."""
+    rule = alpha_rule(image)
+    if rule != "associate" or tuple(bpy.app.version)[:2] < (5, 1):
+        return rule
+    return "associate always" if image.alpha_mode == "STRAIGHT" else "straight"
 
 
 def alpha_rule(image) -> str:
@@ -894,6 +921,17 @@ def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = N
         reader.warn(node, f"{what} could not be read ({why or 'no pixels'}); Primer renders it magenta, as Cycles "
                           "does")
         return None
+    if tile is not None and pixels.dtype != np.uint8 and _tile_packed(image, tile):
+        # Cycles reads a packed UDIM's tiles from Blender's float buffers (BlenderImageLoader), which Python cannot
+        # see: a linear file stored associated is its values exactly (a half's too, in float32); others are warned.
+        space = image.colorspace_settings.name
+        if pixels.dtype.kind == "f" and space in LINEAR_SPACES and image.alpha_mode in ("PREMUL", "NONE",
+                                                                                         "CHANNEL_PACKED"):
+            pixels = pixels.astype(np.float32)
+        else:
+            reader.warn(node, f"{what} is packed and stored in more than 8 bits: Cycles reads Blender's float "
+                              "buffer of it (decoded to scene-linear and associated by Blender), Primer the file's "
+                              "values as for a tile on disk")
     if pixels.dtype.kind == "f":
         bad = ~np.isfinite(pixels)
         if bad.any():
@@ -901,8 +939,16 @@ def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = N
                               "them as 0")
             pixels = np.where(bad, pixels.dtype.type(0.0), pixels)
     # (Simplify's Texture Limit and Resolution, as Cycles; a half image's means made half as this Blender's Cycles)
-    pixels = textures_.limited(pixels, *_TEXTURE_LIMIT, _HALF_ROUNDING[0] or half_rounding_now())
+    rounding = _HALF_ROUNDING[0] or half_rounding_now()
+    pixels = textures_.limited(pixels, *_TEXTURE_LIMIT, rounding)
+    if pixels.dtype == np.float16 and image.source != "MOVIE":
+        pixels = textures_.half_widened(pixels, rounding)   # (halves as this Blender's Cycles reads them in lookups)
     return textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
+
+
+def _tile_packed(image, tile: int) -> bool:
+    """Whether UDIM `image`'s `tile` (its number) is packed into the .blend."""
+    return any(getattr(p, "tile_number", 1001) == tile for p in image.packed_files)
 
 
 def sequence_frame(user, scene_frame: int) -> int:
@@ -1140,9 +1186,10 @@ def _oiio():
 def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
     """An image's pixels (h, w, c) as Cycles loads them (uint8, uint16, float16 or float32) bottom row first, its
     channels as stored (sRGB values of an sRGB image are left encoded; a movie's are scene-linear), its alpha as
-    alpha_rule says (with_alpha_rule): its file, a UDIM image's `tile`, a sequence's or a movie's `frame`."""
+    load_alpha_rule says (with_alpha_rule): its file, a UDIM image's `tile`, a sequence's or a movie's `frame`; a
+    packed or generated image Blender holds in float, its float buffer (from_float_buffer, _float_buffer)."""
     oiio = _oiio()
-    rule = alpha_rule(image)
+    rule = load_alpha_rule(image)
     if image.source == "TILED":
         packed = next((p for p in image.packed_files if getattr(p, "tile_number", 1001) == tile), None)
         if packed is not None and oiio is not None:
@@ -1158,7 +1205,15 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
         return _oiio_read_file(oiio, movie_.frame_file(bpy.path.abspath(image.filepath, library=image.library), frame,
                                                        width, height, image.colorspace_settings.name,
                                                        bpy.app.binary_path))
+    if from_float_buffer(image):                    # (Cycles' BlenderImageLoader: Blender's float buffer, copied)
+        return _float_buffer(image, rule)
     packed = image.packed_file
+    if image.source == "FILE" and packed is not None and image.alpha_mode != "STRAIGHT":
+        # (a packed byte image: Cycles reads Blender's byte buffer, which for Premultiplied is the file's bytes divided
+        # by alpha; for Straight it is the file's bytes, read below and decoded once)
+        data = packed.data
+        return _decoded(("blender bytes", len(data), hashlib.blake2b(data, digest_size=16).digest(), rule,
+                         image.alpha_mode, image.colorspace_settings.name), lambda: _byte_buffer(image, rule))
     if oiio is not None and image.source == "FILE":
         if packed is not None:
             data = packed.data
@@ -1187,14 +1242,51 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
     return _buffer_alpha(flat.reshape(height, width, channels), rule, bool(image.is_float))
 
 
+def _float_buffer(image, rule: str) -> np.ndarray:
+    """Blender's float buffer of an image (from_float_buffer) as Cycles reads it (h, w, c) float32, bottom row first:
+    its values as Blender made them (scene-linear, associated), alpha 1 for `rule` "ignore" (load_alpha_rule), and
+    the colours times alpha once more for "associate always" (Cycles 5.1 on, Alpha Straight; textures.associated:
+    float32 products)."""
+    width, height = image.size
+    channels = image.channels
+    if width * height == 0:
+        raise ValueError("the image is empty")
+    flat = np.empty(width * height * channels, np.float32)
+    image.pixels.foreach_get(flat)
+    pixels = flat.reshape(height, width, channels)
+    if rule == "ignore":
+        return textures_.alpha_ignored(pixels)
+    if rule == "associate always":
+        return textures_.associated(pixels)
+    return pixels
+
+
+def _byte_buffer(image, rule: str) -> np.ndarray:
+    """Blender's byte buffer of a packed byte image as Cycles' BlenderImageLoader reads it (h, w, 4) uint8, bottom row
+    first (Image.pixels gives bytes as k x (1 / 255)): straight, as Blender keeps bytes, associated in bytes where
+    `rule` (load_alpha_rule) associates, alpha 255 for "ignore"."""
+    width, height = image.size
+    channels = image.channels
+    if width * height == 0:
+        raise ValueError("the image is empty")
+    flat = np.empty(width * height * channels, np.float32)
+    image.pixels.foreach_get(flat)
+    stored = np.rint(np.clip(flat, 0.0, 1.0) * np.float32(255.0)).astype(np.uint8).reshape(height, width, channels)
+    if rule == "ignore":
+        return textures_.alpha_ignored(stored)
+    if rule in ("associate", "associate always"):
+        return textures_.associated(stored)
+    return stored
+
+
 def _buffer_alpha(pixels: np.ndarray, rule: str, is_float: bool) -> np.ndarray:
     """Blender's pixel buffer (h, w, c) float32 of an image with its alpha as Cycles' BlenderImageLoader reads it: a
     byte image's (Blender keeps bytes straight, Image.pixels gives them as k x (1 / 255)) associated in bytes as
-    textures.associated does, where `rule` (alpha_rule) is "associate"; a float image's as it is (Blender keeps float
+    textures.associated does, where `rule` (load_alpha_rule) associates; a float image's as it is (Blender keeps float
     buffers associated); alpha 1 for "ignore"."""
     if rule == "ignore":
         return textures_.alpha_ignored(pixels)
-    if rule != "associate" or is_float or not textures_.has_alpha_below_one(pixels):
+    if rule not in ("associate", "associate always") or is_float or not textures_.has_alpha_below_one(pixels):
         return pixels
     stored = np.rint(np.clip(pixels, 0.0, 1.0) * np.float32(255.0)).astype(np.uint8)
     return textures_.associated(stored).astype(np.float32) * np.float32(1.0 / 255.0)
@@ -1239,7 +1331,7 @@ def _oiio_read(oiio, path: str, rule: str = None) -> np.ndarray:
     """An image file's pixels with OpenImageIO at their stored precision (uint8 for 8-bit files, uint16 for
     16-bit ones, float16 for half-float ones, which Cycles keeps as half (textures.limited rounds its means to half;
     textures.Image reads them as float32, exactly), else float32), flipped to bottom row first. With a `rule`
-    (alpha_rule) the file is opened as Cycles' OIIOImageLoader opens it, its colours as stored
+    (load_alpha_rule) the file is opened as Cycles' OIIOImageLoader opens it, its colours as stored
     (oiio:UnassociatedAlpha 1), and its alpha read by with_alpha_rule; without one (a movie's frame, scene-linear
     floats from Blender), OpenImageIO's own reading."""
     if rule is None:
@@ -1283,13 +1375,14 @@ def stored_straight(spec, format_name: str) -> bool:
 
 def with_alpha_rule(pixels: np.ndarray, rule: str, straight: bool) -> np.ndarray:
     """An image file's pixels (h, w, c) as stored, `straight` when the file keeps its colours unassociated
-    (stored_straight), as Cycles keeps them for `rule` (alpha_rule): "associate" multiplies a straight file's
+    (stored_straight), as Cycles keeps them for `rule` (load_alpha_rule): "associate always" multiplies the colours
+    by their alpha whatever the file stores (Cycles 5.1 on, Alpha Straight), "associate" multiplies a straight file's
     colours by their alpha (textures.associated: 4 channels only; half floats made half as this export's
     _HALF_ROUNDING says), "ignore" sets the alpha to 1 (textures.alpha_ignored), "straight" leaves them. Pixels with
     no alpha below 1 are given back untouched."""
     if rule == "ignore":
         return textures_.alpha_ignored(pixels)
-    if rule == "associate" and straight:
+    if rule == "associate always" or (rule == "associate" and straight):
         return textures_.associated(pixels, _HALF_ROUNDING[0] or half_rounding_now())
     return pixels
 

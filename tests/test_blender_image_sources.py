@@ -8,7 +8,9 @@ The images are written here: a 2-tile UDIM image (name.1001.png, name.1002.png) 
 span u 0..3 (the third lies in no tile; each tile has UV corners in it, else Cycles' final render leaves it out,
 ImageTextureNode::cull_tiles); a sequence of three files, numbered 11 to 13, read at scene frame 8 through
 Image Users with Frames 3, Start 1, Cyclic, Offset 10 and 11 (frames 12 and 13: the 2nd and 3rd files); a movie
-rendered by Blender to FFmpeg, shown at its frame 2.
+rendered by Blender to FFmpeg, shown at its frame 2. And images Cycles reads from Blender's own buffers (packed
+16-bit and 8-bit PNGs) or by the running Blender's alpha and half rules (a half EXR set to Straight, a 16-bit PNG set to
+Premultiplied), each texel against Cycles and its closed form.
 """
 from __future__ import annotations
 
@@ -160,6 +162,43 @@ if bpy.app.ffmpeg.supported:
     emitting_plane(scene, "Movie", movie, 0.0, 2.0, 1.0)
     out["movie"].update(renders(scene, "movie"))
     out["movie"]["source"] = movie.source
+
+# 4. Images Cycles reads from Blender's buffers, and alpha modes: a 16-bit PNG with straight alpha, packed (Blender's
+# float buffer); a half EXR on disk with Alpha set to Straight (zero and subnormal halves, one texel at alpha 0.5);
+# the 16-bit PNG on disk with Alpha set to Premultiplied; the same texels as an 8-bit PNG, packed, set to
+# Premultiplied (Blender's byte buffer). One row of 4 texels each, a texel on 2 x 2 pixels.
+texels = np.array([[[0.8, 0.3, 0.6, 1.0], [0.5, 0.9, 0.2, 0.5], [0.1, 0.7, 1.0, 0.25], [0.6, 0.6, 0.6, 1.0]]])
+config = oiio.ImageSpec()
+config.attribute("oiio:UnassociatedAlpha", 1)                     # (the colours written as given: straight)
+for name, values, kind in (("deep.png", np.rint(texels * 65535).astype(np.uint16), oiio.UINT16),
+                           ("bytes.png", np.rint(texels * 255).astype(np.uint8), oiio.UINT8),
+                           ("halves.exr", np.array([[[0.0, 2.0 ** -20, 0.75, 1.0], [0.5, 0.25, 0.125, 0.5],
+                                                     [1.5, 0.0, 2.0 ** -24, 1.0], [0.3, 0.3, 0.3, 1.0]]],
+                                                   np.float16), oiio.HALF)):
+    spec = oiio.ImageSpec(4, 1, 4, kind)
+    spec.attribute("oiio:UnassociatedAlpha", 1)
+    handle = oiio.ImageOutput.create(name)
+    handle.open(os.path.join(folder, name), spec)
+    handle.write_image(values)
+    handle.close()
+scene = empty_scene(8, 8)
+deep = {{}}
+for row, (name, packed, mode) in enumerate((("deep.png", True, "STRAIGHT"), ("halves.exr", False, "STRAIGHT"),
+                                            ("deep.png", False, "PREMUL"), ("bytes.png", True, "PREMUL"))):
+    image = bpy.data.images.load(os.path.join(folder, name), check_existing=False)
+    image.alpha_mode = mode
+    if packed and name == "deep.png":
+        image.pack()
+        deep["buffer"] = np.array(image.pixels[:], np.float64).reshape(4, 4).tolist()
+        deep["is_float"] = bool(image.is_float)
+    elif packed:
+        image.pack()
+    emitting_plane(scene, f"Deep{{row}}", image, 0.0, 2.0, 1.0)         # (the view: 2 x 2, a row 0.5 high)
+    plane = bpy.data.objects[f"Deep{{row}}"]
+    plane.scale.y, plane.location.y = 0.25, 0.75 - 0.5 * row
+out["deep"] = renders(scene, "deep")
+out["deep"].update(deep)
+out["deep"]["version"] = list(bpy.app.version)
 primer.unregister()
 report(**out)
 """
@@ -227,3 +266,44 @@ def test_a_movie_shows_the_frame_cycles_shows_decoded_by_blender(found):
     np.testing.assert_allclose(cycles, np.broadcast_to([0.0, 1.0, 0.0], cycles.shape), atol=2e-3)
     np.testing.assert_allclose(mine, cycles, atol=2e-3)
     assert not [w for w in case["warnings"] if "movie" in w], case["warnings"]
+
+
+def test_packed_and_deep_images_and_alpha_modes_read_as_the_running_blenders_cycles_reads_them(found):
+    """Four rows of 4 texels, each texel the Emission of its 2 x 2 pixels, Primer's pixels Cycles' to 1e-6.
+    A packed 16-bit PNG (Straight): Cycles copies Blender's float buffer, sRGB decoded then associated by Blender
+    (srgb(c) a), and from Blender 5.1 on multiplies it by alpha once more (Alpha Straight: explicitly unassociated).
+    A half EXR on disk set to Straight: Cycles 5.0 keeps the associated halves as stored and reads a zero or subnormal
+    half (m 2^-24) as 2^-15 (1 + m / 1024); 5.1 on reads halves exactly and associates (0.5 x alpha 0.5 = 0.25).
+    A 16-bit PNG on disk set to Premultiplied: 5.0 associates its straight shorts ((c a) // 65535, then decoded),
+    5.1 on goes by the Alpha mode and keeps them (decoded c). The 8-bit PNG packed and set to Premultiplied: Cycles
+    reads Blender's byte buffer, the bytes divided by alpha (c / a, at most 255), associated again in 5.0 ((255 a) //
+    255 where c / a passes 255) and kept in 5.1 on (255: 1.0)."""
+    case = found["deep"]
+    mine, cycles = np.asarray(case["PRIMER"]), np.asarray(case["CYCLES"])
+    print(case["warnings"], case["version"])
+    np.testing.assert_allclose(mine, cycles, rtol=1e-6, atol=1e-7)
+    later = tuple(case["version"][:2]) >= (5, 1)
+    rows = [cycles[7 - 2 * row, ::2] for row in range(4)]                 # (4, 3) each, rows bottom first
+    straight = np.array([[0.8, 0.3, 0.6, 1.0], [0.5, 0.9, 0.2, 0.5], [0.1, 0.7, 1.0, 0.25], [0.6, 0.6, 0.6, 1.0]])
+    shorts = np.rint(straight * 65535.0)
+    from core.materials.textures import srgb_to_linear
+    buffer = np.asarray(case["buffer"])
+    assert case["is_float"]
+    np.testing.assert_allclose(buffer[:, :3], srgb_to_linear(shorts[:, :3] / 65535.0) * buffer[:, 3:], atol=5e-5)
+    again = buffer[:, 3:] if later else 1.0
+    np.testing.assert_allclose(rows[0], buffer[:, :3] * again, rtol=1e-6, atol=1e-7)
+    low = 2.0 ** -15
+    halves = np.array([[low, low * (1 + 16 / 1024), 0.75], [0.5, 0.25, 0.125], [1.5, low, low * (1 + 1 / 1024)],
+                       [0.3, 0.3, 0.3]], np.float64)
+    if later:
+        halves = np.array([[0.0, 2.0 ** -20, 0.75], [0.25, 0.125, 0.0625], [1.5, 0.0, 2.0 ** -24], [0.3, 0.3, 0.3]])
+    halves[3] = float(np.float16(0.3))
+    np.testing.assert_allclose(rows[1], halves, rtol=1e-7, atol=0.0)
+    kept = shorts[:, :3] if later else np.floor(shorts[:, :3] * shorts[:, 3:] / 65535.0)
+    np.testing.assert_allclose(rows[2], srgb_to_linear(kept / 65535.0), rtol=1e-5, atol=1e-7)
+    bytes_ = np.rint(straight * 255.0)
+    opaque = [0, 3]                                                       # alpha 255: the bytes as stored
+    np.testing.assert_allclose(rows[3][opaque], srgb_to_linear(bytes_[opaque, :3] / 255.0), rtol=1e-5, atol=1e-7)
+    for texel, channels in ((1, [0, 1]), (2, [1, 2])):                    # c / a at least 255
+        top = 255.0 if later else np.floor(255.0 * bytes_[texel, 3] / 255.0)
+        np.testing.assert_allclose(rows[3][texel, channels], srgb_to_linear(top / 255.0), rtol=1e-5, atol=1e-7)
