@@ -932,18 +932,51 @@ def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = N
             reader.warn(node, f"{what} is packed and stored in more than 8 bits: Cycles reads Blender's float "
                               "buffer of it (decoded to scene-linear and associated by Blender), Primer the file's "
                               "values as for a tile on disk")
-    if pixels.dtype.kind == "f":
-        bad = ~np.isfinite(pixels)
-        if bad.any():
-            reader.warn(node, f"{what} has {int(bad.any(axis=-1).sum())} NaN or infinite pixel(s); Primer reads "
-                              "them as 0")
-            pixels = np.where(bad, pixels.dtype.type(0.0), pixels)
-    # (Simplify's Texture Limit and Resolution, as Cycles; a half image's means made half as this Blender's Cycles)
     rounding = _HALF_ROUNDING[0] or half_rounding_now()
+    if pixels.dtype.kind == "f":
+        pixels = _finite_texels(pixels, rounding, reader, node, what)
+    # (Simplify's Texture Limit and Resolution, as Cycles; a half image's means made half as this Blender's Cycles)
     pixels = textures_.limited(pixels, *_TEXTURE_LIMIT, rounding)
     if pixels.dtype == np.float16 and image.source != "MOVIE":
         pixels = textures_.half_widened(pixels, rounding)   # (halves as this Blender's Cycles reads them in lookups)
     return textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
+
+
+def _finite_texels(pixels: np.ndarray, rounding, reader: NodeReader, node, what: str) -> np.ndarray:
+    """A float image's pixels (h, w, c), bottom row first, with its NaN and infinite texels as the running Blender's
+    Cycles loads them, with a warning that says so. From Blender 5.1 on (`rounding` NEAREST_EVEN) a texel of several
+    channels (Cycles makes it RGBA, an RGB one's alpha 1) with any channel not finite becomes 0 in every channel, alpha
+    too (an RGB image gains an alpha channel for it), a grey texel 0; halves likewise. Blender 4.2 .. 5.0 (TRUNCATED)
+    check floats only, and of several channels only the texels whose index (bottom row first) is a multiple of 4
+    (their loop steps 4 texels at a time): those become 0 in every channel; the others reach the kernel, which renders
+    a bad channel as 0 (measured on Emission), and Primer reads them so; halves stay as they are, read with the
+    exponent's bias moved as 65536 (1 + m / 1024) (textures.half_widened), finite."""
+    bad = ~np.isfinite(pixels)
+    if not bad.any():
+        return pixels
+    texels = int(bad.any(axis=-1).sum())
+    old = rounding is textures_.HalfRounding.TRUNCATED
+    if pixels.dtype == np.float16 and old:
+        reader.warn(node, f"{what} has {texels} NaN or infinite half texel(s); Primer reads them as Cycles 5.0 does, "
+                          "as 65536 (1 + mantissa / 1024)")
+        return pixels
+    if pixels.shape[2] == 1:
+        reader.warn(node, f"{what} has {texels} NaN or infinite texel(s); Primer reads them as 0, as Cycles does")
+        return np.where(bad, pixels.dtype.type(0.0), pixels)
+    whole = bad.any(axis=-1)
+    if old:
+        h, w = pixels.shape[:2]
+        whole &= np.arange(h * w).reshape(h, w) % 4 == 0
+        reader.warn(node, f"{what} has {texels} NaN or infinite texel(s); Primer reads them as Cycles 5.0 does: those "
+                          "at an index that is a multiple of 4 as 0 in every channel, alpha too, the others' bad "
+                          "channels as 0")
+    else:
+        reader.warn(node, f"{what} has {texels} NaN or infinite texel(s); Primer reads each as 0 in every channel, "
+                          "alpha too, as Cycles does")
+    pixels = np.where(bad, pixels.dtype.type(0.0), pixels)
+    if whole.any() and pixels.shape[2] == 3:        # (Cycles' RGB to RGBA, alpha 1, before the texel's 0)
+        pixels = np.concatenate([pixels, np.ones(pixels.shape[:2] + (1,), pixels.dtype)], axis=2)
+    return np.where(whole[..., None], pixels.dtype.type(0.0), pixels)
 
 
 def _tile_packed(image, tile: int) -> bool:

@@ -245,15 +245,18 @@ def write(name, pixels, kind):
     return path
 
 
-# A 16384 x 4 8-bit RGB ramp (red grows along u), a 16-bit grey image, and a float EXR with NaN and infinite
-# texels, each the colour of an emitting plane; the EXR is the world's HDRI too.
+# A 16384 x 4 8-bit RGB ramp (red grows along u), a 16-bit grey image, a float EXR with NaN and infinite texels and
+# a half RGBA one, each the colour of an emitting plane; the float EXR is the world's HDRI too.
 wide = np.zeros((4, 16384, 3), np.uint8)
 wide[..., 0] = (np.arange(16384) * 255 // 16383).astype(np.uint8)
 grey16 = np.full((2, 2, 1), 13107, np.uint16)                   # 0.2 exactly
 broken = np.full((2, 2, 3), 0.5, np.float32)
-broken[0, 0] = (np.nan, np.inf, -np.inf)
+broken[0, 0] = (np.nan, np.inf, -np.inf)                      # (texel 2, bottom row first)
+broken[1, 0] = (0.25, np.nan, 0.75)                            # (texel 0)
+halves = np.full((2, 2, 4), 0.5, np.float16)
+halves[0, 0] = (np.inf, 0.25, np.nan, 1.0)                     # (numpy's NaN half: mantissa 512)
 paths = [write("wide.png", wide, oiio.UINT8), write("grey16.png", grey16, oiio.UINT16),
-         write("broken.exr", broken, oiio.FLOAT)]
+         write("broken.exr", broken, oiio.FLOAT), write("halves.exr", halves, oiio.HALF)]
 for i, path in enumerate(paths):
     mat, tree, output = material(f"Image {{i}}")
     node = tree.nodes.new("ShaderNodeTexImage")
@@ -289,31 +292,42 @@ for material in exported.scene.materials:
         if node is not None:
             image = node.props["image"]
             images[material.name] = (image.pixels.dtype.name, list(image.pixels.shape), image.rgba()[..., :3].tolist()
-                                     if image.pixels.shape[1] <= 2 else image.rgba()[0, [0, 8192, 16383], :3].tolist())
+                                     if image.pixels.shape[1] <= 2 else image.rgba()[0, [0, 8192, 16383], :3].tolist(),
+                                     image.rgba()[..., 3].tolist() if image.pixels.shape[1] <= 2 else None)
 settings = exported.settings
 settings.samples = 4
 result = render_.render(exported.scene, settings)
-report(warnings=exported.warnings, images=images, finite=bool(np.isfinite(result.image).all()),
+report(warnings=exported.warnings, images=images, version=list(bpy.app.version), finite=bool(np.isfinite(result.image).all()),
        world_finite=bool(np.isfinite(exported.scene.world.image).all()))
 """
 
 
-def test_images_keep_their_stored_precision_and_bad_texels_are_read_as_zero(results):
+def test_images_keep_their_stored_precision_and_bad_texels_are_read_as_cycles_reads_them(results):
     """An 8-bit 16384-texel-wide image stays bytes (a quarter of floats' memory), a 16-bit grey one 16-bit and
-    one channel, read as value / maximum; NaN and infinite texels of a float image (a texture and the world's
-    HDRI) are read as 0 with a warning, and the render has no NaN pixel; the HDRI's own Texture Mapping is applied
-    (the world baked from its node graph), not warned about."""
+    one channel, read as value / maximum; a float image's texel with a NaN or infinite channel (a texture and the
+    world's HDRI) is 0 in every channel, alpha too (an RGB image gains alpha 1 elsewhere), as Cycles' loader sets it,
+    with a warning, and the render has no NaN pixel; in Blender 5.0 only texels whose index is a multiple of 4 (the
+    loader's loop), the others' bad channels 0. A half image's such texel is 0 from Blender 5.1 on, while Cycles 4.2 ..
+    5.0 keep it and read inf as 65536 and NaN (mantissa 512) as 65536 x 1.5 (its exponent's bias moved); the HDRI's
+    own Texture Mapping is applied (the world baked from its node graph), not warned about."""
     result = results["stored"]
-    wide, grey, broken = (result["images"][f"Image {i}"] for i in range(3))
+    wide, grey, broken, halves = (result["images"][f"Image {i}"] for i in range(4))
     assert wide[:2] == ["uint8", [4, 16384, 3]]
     np.testing.assert_allclose(np.array(wide[2])[:, 0], [0.0, 8192 * 255 // 16383 / 255.0, 1.0], atol=1e-9)
     assert grey[:2] == ["uint16", [2, 2, 1]]
     np.testing.assert_allclose(grey[2], 0.2, atol=1e-12)            # grey to RGB: 13107 / 65535
-    assert broken[0] == "float32" and np.isfinite(broken[2]).all()
-    assert broken[2][1][0] == [0.0, 0.0, 0.0]                       # the file's top-left texel (rows bottom first)
-    assert broken[2][0][0] == [0.5, 0.5, 0.5]
+    assert broken[:2] == ["float32", [2, 2, 4]] and np.isfinite(broken[2]).all()        # (alpha for texel 0)
+    later = tuple(result["version"][:2]) >= (5, 1)
+    assert broken[2][0][0] == [0.0, 0.0, 0.0] and broken[3][0][0] == 0.0     # texel 0: the file's bottom-left
+    assert broken[2][1][0] == [0.0, 0.0, 0.0] and broken[3][1][0] == (0.0 if later else 1.0)    # texel 2
+    assert broken[2][0][1] == [0.5, 0.5, 0.5] and broken[3][0][1] == 1.0
+    if later:
+        assert halves[2][1][0] == [0.0, 0.0, 0.0] and halves[3][1][0] == 0.0
+    else:
+        assert halves[2][1][0] == [65536.0, 0.25, 98304.0] and halves[3][1][0] == 1.0
+    assert halves[2][0][0] == [0.5, 0.5, 0.5] and halves[3][0][0] == 0.5
     warnings = "\n".join(result["warnings"])
-    assert "NaN or infinite" in warnings and "broken.exr" in warnings
+    assert "NaN or infinite" in warnings and "broken.exr" in warnings and "halves.exr" in warnings
     assert "Texture Mapping" not in warnings
     assert result["finite"] and result["world_finite"]
 
