@@ -1235,6 +1235,8 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
         width, height = image.size
         if width * height == 0:
             raise ValueError("Blender cannot open the movie")
+        # (a frame before the first or past the last shows that one, as Blender's load_movie_single clamps it)
+        frame = min(max(int(frame), 1), max(int(image.frame_duration), 1))
         return _oiio_read_file(oiio, movie_.frame_file(bpy.path.abspath(image.filepath, library=image.library), frame,
                                                        width, height, image.colorspace_settings.name,
                                                        bpy.app.binary_path))

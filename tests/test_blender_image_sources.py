@@ -8,7 +8,7 @@ The images are written here: a 2-tile UDIM image (name.1001.png, name.1002.png) 
 span u 0..3 (the third lies in no tile; each tile has UV corners in it, else Cycles' final render leaves it out,
 ImageTextureNode::cull_tiles); a sequence of three files, numbered 11 to 13, read at scene frame 8 through
 Image Users with Frames 3, Start 1, Cyclic, Offset 10 and 11 (frames 12 and 13: the 2nd and 3rd files); a movie
-rendered by Blender to FFmpeg, shown at its frame 2. And images Cycles reads from Blender's own buffers (packed
+rendered by Blender to FFmpeg, shown at its frame 2 and past its end. And images Cycles reads from Blender's own buffers (packed
 16-bit and 8-bit PNGs) or by the running Blender's alpha and half rules (a half EXR set to Straight, a 16-bit PNG set to
 Premultiplied), each texel against Cycles and its closed form.
 """
@@ -157,9 +157,10 @@ if bpy.app.ffmpeg.supported:
     scene.render.filepath = os.path.join(folder, "movie_")
     bpy.ops.render.render(animation=True)
     movie_path = next(os.path.join(folder, f) for f in os.listdir(folder) if f.startswith("movie_"))
-    scene = empty_scene(8, 8, frame=2)
+    scene = empty_scene(16, 8, frame=2)
     movie = bpy.data.images.load(movie_path)
-    emitting_plane(scene, "Movie", movie, 0.0, 2.0, 1.0)
+    emitting_plane(scene, "Movie", movie, -1.0, 2.0, 1.0)
+    emitting_plane(scene, "Past", movie, 1.0, 2.0, 1.0, offset=5)     # (frame 7 of 3: Blender shows the last)
     out["movie"].update(renders(scene, "movie"))
     out["movie"]["source"] = movie.source
 
@@ -256,14 +257,16 @@ def test_a_world_environment_sequence_shows_the_frame_its_image_user_picks_as_cy
 
 def test_a_movie_shows_the_frame_cycles_shows_decoded_by_blender(found):
     """Cycles reads the movie through Blender (frame 2 of red, green, blue: green); Primer has a second Blender decode
-    that frame (addon/movie.py) and shows the same pixels, with no warning."""
+    that frame (addon/movie.py) and shows the same pixels, with no warning. A frame past the movie's end (Offset 5:
+    frame 7) shows its last frame, blue, as Blender clamps it (Primer showed black)."""
     case = found["movie"]
     if not case["ffmpeg"]:
         pytest.skip("this Blender has no FFmpeg: no movie can be made to test with")
     mine, cycles = np.asarray(case["PRIMER"]), np.asarray(case["CYCLES"])
     print(case["warnings"], cycles.mean(axis=(0, 1)), mine.mean(axis=(0, 1)))
     assert case["source"] == "MOVIE"
-    np.testing.assert_allclose(cycles, np.broadcast_to([0.0, 1.0, 0.0], cycles.shape), atol=2e-3)
+    np.testing.assert_allclose(cycles[:, :8], np.broadcast_to([0.0, 1.0, 0.0], (8, 8, 3)), atol=2e-3)
+    np.testing.assert_allclose(cycles[:, 8:], np.broadcast_to([0.0, 0.0, 1.0], (8, 8, 3)), atol=2e-3)
     np.testing.assert_allclose(mine, cycles, atol=2e-3)
     assert not [w for w in case["warnings"] if "movie" in w], case["warnings"]
 
