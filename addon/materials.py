@@ -1240,9 +1240,13 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
         return _oiio_read_file(oiio, movie_.frame_file(bpy.path.abspath(image.filepath, library=image.library), frame,
                                                        width, height, image.colorspace_settings.name,
                                                        bpy.app.binary_path))
-    if from_float_buffer(image):                    # (Cycles' BlenderImageLoader: Blender's float buffer, copied)
-        return _float_buffer(image, rule)
     packed = image.packed_file
+    if from_float_buffer(image):                    # (Cycles' BlenderImageLoader: Blender's float buffer, copied)
+        if packed is None:                          # (a generated image: its pixels may change with no file)
+            return _float_buffer(image, rule)
+        data = packed.data
+        return _decoded(("blender floats", len(data), hashlib.blake2b(data, digest_size=16).digest(), rule,
+                         image.alpha_mode, image.colorspace_settings.name), lambda: _float_buffer(image, rule))
     if image.source == "FILE" and packed is not None and image.alpha_mode != "STRAIGHT":
         # (a packed byte image: Cycles reads Blender's byte buffer, which for Premultiplied is the file's bytes divided
         # by alpha; for Straight it is the file's bytes, read below and decoded once)
