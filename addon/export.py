@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import types
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -747,13 +748,15 @@ def lamp_hidden(obj) -> int:
     return hidden_bits(obj, LAMP_RAY_VISIBILITY)
 
 
-def export_light(obj, matrix: np.ndarray, warnings: list):
+def export_light(obj, matrix: np.ndarray, warnings: list, instance=None):
     """Return the core light of a Blender light object placed by `matrix` (4, 4), or None if it sends no light.
+    instance: the depsgraph object instance it comes from (an instanced lamp's random number and Instancer
+    attributes, which its node tree's Object Info and Attribute nodes read), or None: the object itself.
 
     A light with size is seen by camera rays, as in Cycles, unless its Ray Visibility > Camera is off; its other
     Ray Visibility switches hide it from diffuse, glossy and transmission bounces (lamp_hidden).
     """
-    core = _export_light(obj, matrix, warnings)
+    core = _export_light(obj, matrix, warnings, instance)
     if core is not None:
         core.camera = bool(getattr(obj, "visible_camera", True))
         core.cast_shadow = bool(getattr(obj.data, "use_shadow", True))    # Cast Shadow (Cycles: no shadow rays)
@@ -764,14 +767,14 @@ def export_light(obj, matrix: np.ndarray, warnings: list):
     return core
 
 
-def _export_light(obj, matrix: np.ndarray, warnings: list):
+def _export_light(obj, matrix: np.ndarray, warnings: list, instance=None):
     """export_light's work."""
     light = obj.data
     if light.type == "AREA" and getattr(getattr(light, "cycles", None), "is_portal", False):
         return None
     wiring = lamp_ies_wiring(obj)
     falloff = lamp_falloff_wiring(obj) if wiring is None else None
-    program = lamp_program(obj, matrix, warnings) if wiring is None and falloff is None else None
+    program = lamp_program(obj, matrix, warnings, instance) if wiring is None and falloff is None else None
     if program is not None:             # (the tree's emission is the program's, per sample)
         core = _lamp(obj, matrix, warnings, _light_color(light))
         if core is not None:
@@ -794,7 +797,7 @@ PROGRAM_LAMPS = {"POINT": lamp_graph_.UV_SPHERE, "SPOT": lamp_graph_.UV_SPOT, "A
                  "SUN": lamp_graph_.UV_SUN}
 
 
-def lamp_program(obj, matrix: np.ndarray, warnings: list):
+def lamp_program(obj, matrix: np.ndarray, warnings: list, instance=None):
     """The program of a lamp's Emission that varies over the lamp (core/lights/lamp_graph.py LampEmission), or None: a
     constant tree (light_node_factor evaluates it once), an IES Texture or a Light Falloff wired linearly
     (lamp_ies_wiring, lamp_falloff_wiring: evaluated by the lamp's own factors), another shader at the Light Output, a
@@ -804,7 +807,9 @@ def lamp_program(obj, matrix: np.ndarray, warnings: list):
     As Cycles' light_sample_shader_eval, the Emission's Color x Strength is evaluated for each light sample and each
     ray that meets the lamp, at the lamp's shading point (shader_setup_from_sample): textures, Texture Coordinate
     (Normal, Object, Generated, UV as Cycles defines them for lamps), Math, Mix, Color Ramp, Light Falloff in any wiring
-    (with the sample's ray length, as the materials' Light Falloff) and the rest of the node-graph program."""
+    (with the sample's ray length, as the materials' Light Falloff) and the rest of the node-graph program; Light
+    Path's depths those of the path the light reaches (lamp_graph.lamp_paths), Object Info and an Attribute node's
+    Object and Instancer attributes the lamp object's (lamp_object_info; instance: its depsgraph instance, or None)."""
     light = obj.data
     emission = lamp_emission(obj)
     if light.type not in PROGRAM_LAMPS or emission is None:
@@ -822,17 +827,31 @@ def lamp_program(obj, matrix: np.ndarray, warnings: list):
     node = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
     reader = materials_.NodeReader(obj, warnings, kind="light")
     reader.per_sample = True            # (a Light Falloff reads the sample's ray length, as in a material)
-    unread = sorted({f"Light Path's {link.output}" for link in feeding if link.node.kind == "LIGHT_PATH"
-                     and link.output not in world_graph.EXACT_FOR_LIGHTING}
-                    | {f"Object Info's {link.output}" for link in feeding if link.node.kind == "OBJECT_INFO"})
-    if unread:
-        # (Cycles gives a lamp's shading point the depths of the path it lights and the lamp's object)
-        warnings.append(f"light '{obj.name}': its node tree reads {', '.join(unread)}, which Primer's lamps do not "
-                        "carry (they read 0); Cycles reads the lit path's depths and the lamp object's info")
     color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
     spot_size = float(light.spot_size) if light.type == "SPOT" else float(light.angle) if light.type == "SUN" else 0.0
+    info, random = lamp_object_info(obj, matrix, instance)     # (after reading: the attributes it reads have columns)
     return lamp_graph_.compile_lamp(color, strength, np.asarray(matrix, np.float64), PROGRAM_LAMPS[light.type],
-                                    spot_size)
+                                    spot_size, info, random)
+
+
+def lamp_object_info(obj, matrix: np.ndarray, instance=None) -> tuple:
+    """A lamp object's Object Info row ((OBJECT_INFO_WIDTH + 4 k,) float64, geometry.instance_info's columns: its
+    location, Color and Alpha, pass index, then the RGBA of the k Object and Instancer attributes read so far,
+    materials.INSTANCE_ATTRIBUTES) and its random number, as Cycles' lamp shading point reads its object (ls->object:
+    a light is an object of its own in Cycles 5): Object Info's Random hash_uint2(hash_string(name), 0), an
+    instance's its random_id. instance: its depsgraph instance, or None (the object itself)."""
+    shim = instance if instance is not None else types.SimpleNamespace(
+        is_instance=False, object=obj, parent=None, particle_system=None, persistent_id=(0,))
+    row = np.zeros(materials_.OBJECT_INFO_WIDTH + 4 * len(materials_.INSTANCE_ATTRIBUTES))
+    row[0:3] = np.asarray(matrix, np.float64)[:3, 3]
+    row[3:7] = np.asarray(tuple(obj.color), np.float64)[:4]
+    row[7] = int(getattr(obj, "pass_index", 0))
+    for key, rgba in (materials_.object_attributes(shim) or {}).items():
+        start = materials_.OBJECT_INFO_WIDTH + 4 * materials_.INSTANCE_ATTRIBUTES.index(key)
+        row[start:start + 4] = rgba
+    instanced = instance is not None and getattr(instance, "is_instance", False)
+    random = graph_.random_from_id(instance.random_id) if instanced else graph_.object_random(obj.name)
+    return row, random
 
 
 def _lamp(obj, matrix: np.ndarray, warnings: list, color: np.ndarray):
@@ -1092,10 +1111,10 @@ def world_surface(world, warnings: list, kernels: str = "compiled") -> World:
         elif not (camera or lights):
             return World(color=np.zeros(3), camera=False, lights=False)     # seen by no ray: nothing to evaluate
         else:
-            baked, suns, seen = _baked_world(world, output.inputs["Surface"], warnings, kernels)
+            baked, suns, seen, depths = _baked_world(world, output.inputs["Surface"], warnings, kernels)
             if isinstance(baked, np.ndarray) and baked.ndim == 3:
                 return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=lights, suns=suns,
-                             seen=seen)
+                             seen=seen, samples_seen=depths and seen is not None)
             color = color if baked is None else baked
     if (color < 0.0).any():
         warnings.append(NEGATIVE_WORLD.format(float(color.min())))
@@ -1109,33 +1128,31 @@ def _baked_world(world, surface, warnings: list, kernels: str = "compiled"):
     (core/lights/world_graph.py bake, in C where `kernels` is "compiled"), or None, with a warning, for a world shader
     Primer does not read; the sun lamps of its Sky Textures' discs (sky_suns, left out of the bake and of the rays
     that escape); the program every ray that escapes evaluates with its path (World.seen), or None where they find
-    the bake: a graph that varies or reads the Light Path node)."""
+    the bake: a graph that varies or reads the Light Path node; whether the graph reads Light Path's depths, which
+    the bake fixes at the first bounce: its light samples then run that program with their vertex's path
+    (World.samples_seen), as Cycles evaluates the world's shader for each light sample)."""
     reader = materials_.NodeReader(world, warnings, kind="world", kernels=kernels)
     radiance = _socket_radiance(reader, surface)
     if radiance is None:
-        return None, [], None
+        return None, [], None, False
     if not isinstance(radiance, graph_.Link):
-        return radiance, [], None
+        return radiance, [], None, False
     suns, notes = world_graph.sky_suns(radiance, 1.0)
     warnings.extend(notes)
     program = world_graph.compile_world(radiance, 1.0)
     read = {link.output for link in graph_.links_under([(None, 1.0, {"radiance": radiance})])
             if link.node.kind == "LIGHT_PATH"}
-    if read - world_graph.EXACT_FOR_LIGHTING:
-        depths = ", ".join(sorted(read - world_graph.EXACT_FOR_LIGHTING))
-        warnings.append(f"the world's node graph reads the Light Path node's {depths}; Primer evaluates the world "
-                        "for each ray that escapes with its path, but its light samples read a bake made for the first "
-                        "bounce (Ray Depth 1, the other depths 0), where Cycles gives each its vertex's depths")
+    depths = bool(read - world_graph.EXACT_FOR_LIGHTING)   # (its light samples run `program` with their paths)
     baked = world_graph.bake(radiance, 1.0, kernels=kernels)
     flat = baked.reshape(-1, 3)
     constant = bool(np.isfinite(flat).all() and (flat == flat[0]).all() and not suns)
     seen = program if read or not constant else None
-    if constant:
-        return flat[0].astype(np.float64), [], seen   # the same everywhere: a constant world, not sampled as a light
+    if constant:                                      # the same everywhere: a constant world, not sampled as a light
+        return flat[0].astype(np.float64), [], seen, depths
     if (flat < 0.0).any():
         warnings.append(NEGATIVE_WORLD.format(float(np.nanmin(flat))))
         baked = np.maximum(baked, np.float32(0.0))
-    return baked, suns, seen
+    return baked, suns, seen, depths
 
 
 def _socket_radiance(reader, socket):
@@ -1687,7 +1704,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             warnings.extend(note for note in unmodelled.object_notes(obj)
                             + (unmodelled.light_notes(obj) if obj.type == "LIGHT" else []) if note not in warnings)
         if obj.type == "LIGHT":
-            light = export_light(obj, matrix, warnings)
+            light = export_light(obj, matrix, warnings, instance)
             if light is not None:
                 core.lights.append(links.lamp(light, obj))
                 groups["lights"].append(lightgroups.source_group(obj))

@@ -575,8 +575,10 @@ class GraphReader:
             if "PARTICLE:0" not in INSTANCE_ATTRIBUTES:
                 INSTANCE_ATTRIBUTES.extend(f"PARTICLE:{k}" for k in range(4))
             props = {"column": OBJECT_INFO_WIDTH + 4 * INSTANCE_ATTRIBUTES.index("PARTICLE:0")}
-        elif kind == "OBJECT_INFO":             # (its Material Index: this material's pass index, a constant)
-            props = {"material_index": float(getattr(self.reader.material, "pass_index", 0))}
+        elif kind == "OBJECT_INFO":             # (its Material Index: this material's pass index, a constant; a
+            # lamp's tree has no material: Cycles' shader_pass_id of a light's shader is 0)
+            owner = self.reader.material
+            props = {"material_index": 0.0 if self.reader.kind == "light" else float(getattr(owner, "pass_index", 0))}
         elif kind == "MAPPING":
             props = {"type": node.vector_type}
             inputs = self.inputs(node, path, ["Vector", "Location", "Rotation", "Scale"])

@@ -260,7 +260,8 @@ class SceneCache:
             # 2. Lights: export them all again when any may have changed.
             if obj.type == "LIGHT":
                 if relight:
-                    light = export.export_light(obj, np.array(instance.matrix_world, np.float64), self.warnings)
+                    light = export.export_light(obj, np.array(instance.matrix_world, np.float64), self.warnings,
+                                                instance)
                     if light is not None:
                         lights.append(links.lamp(light, obj))
                 continue

@@ -836,6 +836,35 @@ static void textured_block(SampleBlock *b, const BlockHits *H, const DirectSetti
     }
 }
 
+/* A lamp's node program (lamp_graph.c) for each sample in the block, seen by the path at its hit: EMISSION alone and
+ * that vertex's counts (Cycles' light_sample_shader_eval reads the integrator state's). */
+static void lamp_tint_block(SampleBlock *b, const BlockHits *H, const LightRecord *light)
+{
+    for (int64_t k = 0; k < b->n; k++) {
+        if (!(b->strength[k] > 0.0 || b->strength[k] < 0.0)) continue;
+        LightPath path = path_at(H, b->hit[k], PATH_EMISSION);
+        double position[3] = {b->position[0][k], b->position[1][k], b->position[2][k]};
+        double leaving[3] = {-b->L[0][k], -b->L[1][k], -b->L[2][k]};
+        double color[3] = {b->color[0][k], b->color[1][k], b->color[2][k]};
+        lamp_graph_tint(light, position, leaving, b->distance[k], &path, color);
+        for (int c = 0; c < 3; c++) b->color[c][k] = color[c];
+    }
+}
+
+/* vertex.world_samples_seen: the world's samples in the block with the colour its program gives each for the path at
+ * its hit (EMISSION alone, that vertex's counts; World.samples_seen: a graph reading Light Path's depths). */
+static void world_seen_block(SampleBlock *b, const BlockHits *H, const WorldTables *world)
+{
+    for (int64_t k = 0; k < b->n; k++) {
+        if (!(b->strength[k] > 0.0 || b->strength[k] < 0.0)) continue;
+        LightPath path = path_at(H, b->hit[k], 0);     /* (world_seen adds EMISSION) */
+        path.cone = path.spread = 0.0;
+        double D[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, color[3];
+        world_seen(world, D, &path, color);
+        for (int c = 0; c < 3; c++) b->color[c][k] = color[c];
+    }
+}
+
 /* compiled.graph_emission (primer_graph_emission): what n points O + t D on triangles prim (WorldGeometry's flat
  * indices) emit back along -D by their materials' node graphs, to rays other than the camera's with no path and no
  * footprint (the emitters' estimates: emitters.mean_graph_emission); the frame's geometry; nothing traced. */
@@ -949,6 +978,9 @@ NOINLINE static int64_t direct_light(BlockHits *H, const DirectSettings *ds, uin
                 for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
             }
             light_block(&b, light, ds->context);
+            if (light->lamp_graph != NULL) lamp_tint_block(&b, H, light);   /* (its tree, for each hit's path) */
+            if (light_is((int)light->kind, LIGHT_FLAG_INFINITE) && ds->context->world->samples_seen != 0)
+                world_seen_block(&b, H, ds->context->world);
             if (light->hidden != 0)                      /* a lamp's Ray Visibility: closures it leaves out */
                 for (int64_t k = 0; k < b.n; k++) b.hidden[k] |= (int)light->hidden;
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->context->emitters->textured != NULL)
@@ -1069,8 +1101,8 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         if (away) {
             /* The lamp as the light samples at P see it (a round lamp with soft falloff: the disk facing P), met
              * on this stretch of the line, past O: its pdf from P, the radiance it sends along D. */
-            if (!light_hit(light, P, D, t_mis, &lh) || !(lh.t > t_start)) continue;
-        } else if (!light_hit(light, O, D, t_limit, &lh)) continue;
+            if (!light_hit_for(light, P, D, t_mis, ray->path, &lh) || !(lh.t > t_start)) continue;
+        } else if (!light_hit_for(light, O, D, t_limit, ray->path, &lh)) continue;
         if (sigma != NULL) {                            /* (what the media let through from the lamp) */
             double kept[3];
             stretch_transmittance(lazy_march(&lazy), sigma, away ? lh.t - t_start : lh.t, kept);

@@ -171,7 +171,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension)
             # (a moving emitter where it is at the path's time)
             moving = {} if getattr(light, "mesh", None) is None else {"times": surface.time}
-            ls = light.sample(surface.I, u, cone, N=tree_N, **moving)
+            ls = light.sample(surface.I, u, cone, N=tree_N, **moving, **lamp_paths(light, light_path))
+            ls = world_samples_seen(light, ls, light_path)
             if getattr(light, "textured", None) is not None:
                 ls = textured_samples(ctx, light, surface.I, ls, graph_.with_flags(light_path, graph_.PATH_EMISSION),
                                       surface.time)
@@ -570,7 +571,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         light = ctx.lights[index]
         if not light.is_(LAMP):                   # emitters and the world are found below
             continue
-        lh = light.hit(O, D, t_limit)
+        lh = light.hit(O, D, t_limit, **lamp_paths(light, paths))
         found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
         kind = np.zeros(len(O), np.int64) if seen_as is None else np.asarray(seen_as, np.int64)
         sees = (kind & light.unseen_by) == 0
@@ -579,7 +580,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         if len(moved):
             # The lamp as the light samples at mis_O see it (a round lamp with soft falloff is a disk facing that
             # point), met on this stretch of the line, past O: its pdf from there, the radiance it sends along D.
-            seen = light.hit(mis_O[moved], D[moved], t_mis[moved])
+            seen = light.hit(mis_O[moved], D[moved], t_mis[moved],
+                             **lamp_paths(light, None if paths is None else graph_.paths_at(paths, moved)))
             past = seen.hit & (seen.t > t_start)
             found, radiance, pdf_l = found.copy(), radiance.copy(), pdf_l.copy()
             found[moved] = past
@@ -716,6 +718,25 @@ def unlinked_finds(ctx: Context, prim: np.ndarray, receiver: np.ndarray, seen_as
     if seen_as is not None:
         unlinked &= seen_as != HIDDEN_FROM_CAMERA
     return unlinked
+
+
+def lamp_paths(light, paths) -> dict:
+    """The keyword a lamp's sample or hit takes for the paths its light reaches (graph.LightPaths, or None): {"paths":
+    paths} for a lamp whose node tree is a program (core/lights/lamp_graph.py: it reads their depths), else {}."""
+    return {"paths": paths} if getattr(light, "lamp_nodes", None) is not None else {}
+
+
+def world_samples_seen(light, ls, paths):
+    """The world's light samples `ls` with the colour its program gives each with the path at the vertex it lights
+    (graph.LightPaths, or None: no bounces), EMISSION alone as the flags (World.samples_seen: a graph reading Light
+    Path's depths, which the bake fixes at the first bounce); any other light's as they are."""
+    world = getattr(light, "world", None)
+    if world is None or not getattr(world, "samples_seen", False) or world.seen is None:
+        return ls
+    n = len(ls.L)
+    paths = graph_.light_paths(n, flags=0) if paths is None else graph_.as_light_paths(paths, n)._replace(
+        flags=np.zeros(n, np.int64), cone=np.zeros(n), spread=np.zeros(n))
+    return ls._replace(color=world.seen.along(ls.L, paths))
 
 
 def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None, times=None):

@@ -96,7 +96,11 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
             LightSample ls;
             ls.emitter = -1;
             ls.hidden = 0;
-            sample_light(light, ds->context, P, zero, u, &ls);
+            LightPath lit = {PATH_EMISSION, bounce, 0, 0, 0, 0, 0, 0.0, 0.0};   /* (a light's own shading) */
+            sample_light_for(light, ds->context, P, zero, u, &lit, &ls);
+            if (light_is((int)light->kind, LIGHT_FLAG_INFINITE) && ds->context->world->samples_seen != 0
+                && (ls.strength > 0.0 || ls.strength < 0.0))
+                world_seen(ds->context->world, ls.L, &lit, ls.color);   /* (volume.world_samples_seen) */
             const EmitterTables *e = ds->context->emitters;
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && e->textured != NULL && ls.strength > 0.0
                 && e->textured[ls.emitter]) {

@@ -46,8 +46,8 @@ from ..visibility import HIDDEN_FROM_VOLUME_SCATTER
 from . import lightgroups, shadows
 from .base import Context, check_stop
 from .rays import nearest_seen
-from .vertex import (BsdfRay, gather_light, light_count, light_numbers, mis_count, power_heuristic, shadow_blockers,
-                     textured_samples)
+from .vertex import (BsdfRay, gather_light, lamp_paths, light_count, light_numbers, mis_count, power_heuristic,
+                     shadow_blockers, textured_samples, world_samples_seen)
 
 # The sampling dimensions of a stretch's scattering point (distance, channel) and of its phase direction, and the
 # shift of its light samples' dimensions from the vertex's own (core/sampling; a path's vertex k adds k x
@@ -338,10 +338,11 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
         cone = light.cone(P)
         for j in range(count):
             u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension + LIGHT_SHIFT)
-            ls = light.sample(P, u, cone, N=unknown)
+            # (a light's own shading: EMISSION, the medium's path's bounces; its other counts are not carried)
+            shaded = graph_.light_paths(m, flags=graph_.PATH_EMISSION, bounce=np.broadcast_to(np.asarray(bounce), (m,)))
+            ls = world_samples_seen(light, light.sample(P, u, cone, N=unknown, **lamp_paths(light, shaded)), shaded)
             if getattr(light, "textured", None) is not None:
-                ls = textured_samples(ctx, light, P, ls, graph_.light_paths(
-                    m, flags=graph_.PATH_EMISSION, bounce=np.broadcast_to(np.asarray(bounce), (m,))))
+                ls = textured_samples(ctx, light, P, ls, shaded)
             if not s.distance_attenuation:
                 ls = light.without_attenuation(ls, P)
             lit = (ls.strength > 0.0) | (ls.strength < 0.0)

@@ -292,12 +292,10 @@ INLINE void area_sample(const LightRecord *light, const LightContext *ctx, const
     sample_area_light(light, P, u, out);
     out->strength *= ies_lamp_factor(light, out->L) * lamp_falloff(light, out->distance);
     lamp_color(light, out);
-    lamp_sample_tint(light, out);
 }
 
 INLINE int area_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
 {
     if (!area_light_hit(light, O, D, t_max, out)) return 0;
-    lamp_hit_tint(light, O, D, out);
     return 1;
 }

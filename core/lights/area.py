@@ -303,7 +303,8 @@ class AreaLight(Light):
         diagonal = R[1] + R[2]
         return height * height < NEAR * NEAR * float(diagonal @ diagonal)
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None,
+               paths=None) -> LightSample:
         """A direction uniform in the spherical rectangle where `spherical` (pdf = 1 / Omega), else a point uniform
         in area (pdf = d^2 / (cos(theta_light) A)); E_normal = L_e / pdf on the emitting side. Under a narrow
         spread (`spread_clamps`), from the part of the lamp that can light each point (`sample_spread_region`)."""
@@ -312,7 +313,7 @@ class AreaLight(Light):
             with np.errstate(divide="ignore", invalid="ignore"):
                 geometry = np.where(pdf > 0.0, 1.0 / pdf, 0.0)
             geometry *= spread_attenuation(self.spread, cos_light) * self.ies_factor(-L) * self.falloff_factor(distance)
-            return LightSample(L, distance, self.radiance() * geometry, pdf, self.emitted(targets, -L, distance),
+            return LightSample(L, distance, self.radiance() * geometry, pdf, self.emitted(targets, -L, distance, paths),
                                targets)
         targets = self.points(u)
         area = self.area()
@@ -333,9 +334,10 @@ class AreaLight(Light):
             facing &= pdf > 0.0
             geometry = np.where(facing, 1.0 / pdf, 0.0)
         geometry *= spread_attenuation(self.spread, cos_light) * self.ies_factor(-L) * self.falloff_factor(distance)
-        return LightSample(L, distance, self.radiance() * geometry, pdf, self.emitted(targets, -L, distance), targets)
+        return LightSample(L, distance, self.radiance() * geometry, pdf, self.emitted(targets, -L, distance, paths),
+                           targets)
 
-    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray, paths=None) -> LightHit:
         """Rays meet the light's plane from its emitting side, inside its shape: radiance L_e (spread
         applied) and the pdf `sample` gives that direction (1 / Omega or d^2 / (cos(theta_light) A); under a narrow
         spread, its origin's `spread_region_pdf`)."""
@@ -367,7 +369,7 @@ class AreaLight(Light):
             radiance = np.where(hit, self.radiance() * spread_attenuation(self.spread, cos_light)
                                 * self.ies_factor(-directions) * self.falloff_factor(np.where(hit, t, 1.0)), 0.0)
         reach = np.where(hit, t, 1.0)
-        color = self.emitted(origins + directions * reach[:, None], -directions, reach)
+        color = self.emitted(origins + directions * reach[:, None], -directions, reach, paths)
         return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, pdf)
 
     @property

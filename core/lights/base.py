@@ -268,20 +268,22 @@ class Light:
         return None
 
     def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None,
-               N: Optional[np.ndarray] = None) -> LightSample:
+               N: Optional[np.ndarray] = None, paths=None) -> LightSample:
         """Return the light arriving at each point, one sample per point.
 
         points: (n, 3) float64 shading points in the light's frame; u: (n, 2) float64 uniform numbers
         in [0, 1) (ignored by lights without extent); cone: `self.cone(points)`, if already made;
         N: (n, 3) float64 the points' normals (zero rows or None: unknown), read only by a light made of
-        many parts that picks one by them (the emitters' light tree).
+        many parts that picks one by them (the emitters' light tree); paths: the graph.LightPaths (n rows) of the
+        paths at the points, which a lamp's node tree reads (`emitted`; None: no bounces).
         """
         raise NotImplementedError
 
-    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray, paths=None) -> LightHit:
         """Return where rays meet the light's emitting surface (lights without one are never hit).
 
-        origins, directions: (n, 3) float64; t_max: (n,) float64.
+        origins, directions: (n, 3) float64; t_max: (n,) float64; paths: the graph.LightPaths (n rows) the rays
+        carry after their bounce, which a lamp's node tree reads (`emitted`; None: no bounces).
         """
         n = len(origins)
         return LightHit(np.zeros(n, bool), np.full(n, np.inf), np.zeros((n, 3)), np.zeros(n))
@@ -319,13 +321,14 @@ class Light:
         ies = getattr(self, "ies", None)
         return np.ones(len(leaving)) if ies is None else ies.factor(leaving)
 
-    def emitted(self, P: np.ndarray, leaving: np.ndarray, t: np.ndarray) -> np.ndarray:
+    def emitted(self, P: np.ndarray, leaving: np.ndarray, t: np.ndarray, paths=None) -> np.ndarray:
         """The lamp's colour, (3,) float64, or without a constant tree its colour times what its node program (its
         `lamp_nodes`, core/lights/lamp_graph.py) gives at its points P (n, 3) for light leaving along unit directions
-        (n, 3) towards points t (n,) away: (n, 3) float64."""
+        (n, 3) towards points t (n,) away, reaching paths `paths` (graph.LightPaths of n rows, or None: no bounces):
+        (n, 3) float64."""
         color = np.asarray(self.color, np.float64)[:3]
         nodes = getattr(self, "lamp_nodes", None)
-        return color if nodes is None else color * nodes.at(self, P, leaving, t)
+        return color if nodes is None else color * nodes.at(self, P, leaving, t, paths)
 
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """Return the sample with its 1/r^2 falloff undone (the lecture switch "distance attenuation" off).

@@ -65,8 +65,10 @@ INLINE void lamp_graph_uv(const LightRecord *light, const LampGraph *g, const do
     }
 }
 
-/* LampEmission.at for one point, multiplied into color (lights.h lamp_graph_tint). */
-static void lamp_graph_tint(const LightRecord *light, const double *P, const double *leaving, double t, double *color)
+/* LampEmission.at for one point, multiplied into color (lights.h lamp_graph_tint): the path's counts (NULL: none),
+ * EMISSION alone as its flags, no footprint (lamp_graph.lamp_paths); the lamp object's Object Info and random. */
+static void lamp_graph_tint(const LightRecord *light, const double *P, const double *leaving, double t,
+                            const LightPath *path, double *color)
 {
     const LampGraph *g = light->lamp_graph;
     if (g == NULL) return;
@@ -93,13 +95,15 @@ static void lamp_graph_tint(const LightRecord *light, const double *P, const dou
         sp.dPdv[c] = c == 1;
     }
     for (int c = 0; c < 9; c++) sp.L[c] = g->linear[c];
-    sp.info = NO_INFO;
-    sp.info_width = OBJECT_INFO_WIDTH;
+    sp.info = g->info != NULL ? g->info : NO_INFO;
+    sp.info_width = g->info != NULL ? g->info_width : OBJECT_INFO_WIDTH;
     sp.rays = NULL;
-    sp.random = 0.0;
+    sp.random = g->random;
     sp.side = 1.0;
-    LightPath path = {PATH_EMISSION, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
-    sp.path = path;
+    LightPath none = {0, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
+    sp.path = path != NULL ? *path : none;
+    sp.path.flags = PATH_EMISSION;
+    sp.path.cone = sp.path.spread = 0.0;
     sp.u = sp.v = 0.0;
     sp.t = sun ? (double)3.4028234663852886e38f : t;   /* (a sun's: Cycles' FLT_MAX) */
     double reg[MAX_REGISTERS];

@@ -3,7 +3,11 @@
 Cycles evaluates a lamp's shader wherever it asks for the lamp's light (light_sample_shader_eval: for each light
 sample, and for each BSDF ray that meets the lamp), at a shading point shader_setup_from_sample sets up from the
 sample (kernel/geom/shader_data.h, kernel/light/point.h, spot.h, area.h, distant.h), with EMISSION alone as the
-path's flags:
+path's flags and the path's own counts (svm_node_light_path reads the integrator state's): a light sample's those
+of the vertex it lights (Ray Depth one more, as for every EMISSION or SHADOW evaluation), a BSDF ray's those after
+its bounce (path_state_next counted it), so the two ways to one lamp may see different depths, as in Cycles; and the
+lamp's own object (ls->object = klight->object_id): Object Info's Location, Color, Alpha, Object Index and Random
+are the lamp object's, its Material Index 0, an Attribute node's Object attributes the lamp object's:
 
 - P the point on the lamp (a round lamp's disc facing the lit point, its sphere without Soft Falloff, the point
   itself at radius 0; the area lamp's point; a sun's: the direction its light travels, as a point), N = Ng the
@@ -33,7 +37,7 @@ import numpy as np
 from ..materials import graph as graph_
 from ..materials import textures as textures_
 from ..native import schema
-from ..native.schema import F64, I32, ptr
+from ..native.schema import F64, I32, I64, ptr
 
 # The attributes a lamp's shading point has (Cycles' lamp: UV, and Generated = Object coordinates).
 LAMP_ATTRIBUTES = ("generated", "object", "uv:")
@@ -42,6 +46,13 @@ _UV = schema.constants("UV", ["sphere", "spot", "area", "sun"], "how a lamp's UV
 UV_SPHERE, UV_SPOT, UV_AREA, UV_SUN = _UV["sphere"], _UV["spot"], _UV["area"], _UV["sun"]
 # A sun's ray length (Cycles' FLT_MAX).
 SUN_T = float(np.finfo(np.float32).max)
+
+
+# The Object Info columns a lamp's row has at least (graph.OBJECT_INFO_COLUMNS' Location, Color, Alpha and Object
+# Index; a column past a row reads 0, as its From Instancer ones do for a lamp).
+INFO_COLUMNS = max(start + width for name, (start, width) in graph_.OBJECT_INFO_COLUMNS.items()
+                   if not name.startswith("From Instancer"))
+
 
 LampGraphRecord = schema.record("LampGraph", "A lamp's Emission compiled into one program (core/lights/lamp_graph.py LampEmission).", [
     ("graph", ptr("GraphTables"), "its one program and the images it reads"),
@@ -59,6 +70,10 @@ LampGraphRecord = schema.record("LampGraph", "A lamp's Emission compiled into on
     ("origin", F64, 3, "the origin of the light's (camera-relative) frame in the world: the world point is P + origin\n"
                        "(a sun's: the direction leaving it, Cycles' P = Ng)"),
     ("half_cot", F64, "spot: cot(spot_size / 2) / 2; sun: 1 / (2 sin(angle / 4)) (Cycles' half_inv_sin_half_angle)"),
+    ("info", ptr(F64), "(info_width,) the lamp object's Object Info row (geometry.instance_info's columns: location,\n"
+                       "colour, alpha, pass index, then its Object and Instancer attributes)"),
+    ("info_width", I64, "its columns"),
+    ("random", F64, "the lamp object's random number (Object Info's Random)"),
 ])
 
 
@@ -81,7 +96,9 @@ class LampEmission:
     program, registers (colour, strength), textures, layout: as core/lights/world_graph.py WorldProgram's;
     matrix: (4, 4) float64 the lamp object's transform (world); origin: (3,) float64 the origin of the frame the
     light's points are in (Light.moved); uv_kind: UV_SPHERE, UV_SPOT, UV_AREA or UV_SUN; half_cot: a spot's
-    cot(angle / 2) / 2, a sun's 1 / (2 sin(angle / 4)) (Cycles' half_inv_sin_half_angle, 0 at angle 0).
+    cot(angle / 2) / 2, a sun's 1 / (2 sin(angle / 4)) (Cycles' half_inv_sin_half_angle, 0 at angle 0); info:
+    (w,) float64 the lamp object's Object Info row (geometry.instance_info's columns, w >= INFO_COLUMNS); random:
+    its random number (graph.object_random of its name, an instance's random_id).
     """
 
     program: "graph_.Program"
@@ -92,15 +109,18 @@ class LampEmission:
     uv_kind: int = UV_SPHERE
     half_cot: float = 0.0
     origin: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+    info: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(INFO_COLUMNS))
+    random: float = 0.0
 
     def moved(self, origin: np.ndarray) -> "LampEmission":
         """The same program for a light whose points are now relative to `origin` (Light.moved)."""
         return dataclasses.replace(self, origin=np.asarray(self.origin, np.float64) + origin)
 
-    def at(self, light, P: np.ndarray, leaving: np.ndarray, t: np.ndarray) -> np.ndarray:
+    def at(self, light, P: np.ndarray, leaving: np.ndarray, t: np.ndarray, paths=None) -> np.ndarray:
         """The Emission's Color x Strength (n, 3) float64 at points P (n, 3) on `light` (in its frame), light leaving
         along unit directions `leaving` (n, 3) towards points t (n,) away (non-finite values 0, as Cycles' film drops
-        them)."""
+        them), for paths `paths` (graph.LightPaths of n rows: the counts of the path the light reaches, lamp_paths;
+        None: a path of no bounces)."""
         n = len(P)
         M = np.asarray(self.matrix, np.float64)
         linear = M[:3, :3]
@@ -117,7 +137,8 @@ class LampEmission:
         point = graph_.empty_point(n, width)._replace(
             attributes=attributes, N=N, Ng=N, I=leaving, P=world, uv=np.zeros((n, 2)),
             t=np.full(n, SUN_T) if self.uv_kind == UV_SUN else np.asarray(t, np.float64), linear=np.broadcast_to(linear, (n, 3, 3)).copy(),
-            path=graph_.light_paths(n, flags=graph_.PATH_EMISSION))
+            path=lamp_paths(n, paths), info=np.broadcast_to(self.info, (n, len(self.info))).copy(),
+            random=np.full(n, float(self.random)))
         reg = graph_.run(self.program, point, self.textures)
         c, s = self.registers
         out = reg[:, c:c + 3] * reg[:, s:s + 1]
@@ -166,16 +187,32 @@ class LampEmission:
             uv=self.layout["uv:"][0], width=sum(w for _, w in self.layout.values()), uv_kind=self.uv_kind,
             sphere=int(sphere and self.uv_kind not in (UV_AREA, UV_SUN)), linear=M[:3, :3].reshape(-1).tolist(),
             inverse=np.linalg.inv(M[:3, :3]).reshape(-1).tolist(), location=M[:3, 3].tolist(),
-            origin=np.asarray(self.origin, np.float64).tolist(), half_cot=float(self.half_cot))
+            origin=np.asarray(self.origin, np.float64).tolist(), half_cot=float(self.half_cot),
+            info=np.ascontiguousarray(self.info, np.float64), info_width=len(self.info), random=float(self.random))
 
 
-def compile_lamp(color, strength, matrix: np.ndarray, uv_kind: int = UV_SPHERE, spot_size: float = 0.0) -> LampEmission:
+def lamp_paths(n: int, paths=None) -> "graph_.LightPaths":
+    """The LightPaths (n rows) a lamp's tree sees (Cycles' light_sample_shader_eval): EMISSION alone as the flags, the
+    counts of `paths` (graph.LightPaths of n rows, or None: no bounces), no ray footprint."""
+    if paths is None:
+        return graph_.light_paths(n, flags=graph_.PATH_EMISSION)
+    return graph_.as_light_paths(paths, n)._replace(flags=np.full(n, graph_.PATH_EMISSION, np.int64),
+                                                     cone=np.zeros(n), spread=np.zeros(n))
+
+
+def compile_lamp(color, strength, matrix: np.ndarray, uv_kind: int = UV_SPHERE, spot_size: float = 0.0,
+                 info=None, random: float = 0.0) -> LampEmission:
     """Compile an Emission's color and strength (constants or graph.Links) over a lamp's shading point; matrix (4, 4)
-    the lamp object's transform, uv_kind how its UV is made, spot_size a spot's full angle or a sun's (radians)."""
+    the lamp object's transform, uv_kind how its UV is made, spot_size a spot's full angle or a sun's (radians),
+    info (w,) its object's Object Info row (None: its location, the rest 0), random its random number."""
     from .world_graph import compile_emission
     program, registers, textures, layout, _ = compile_emission(color, strength, set(LAMP_ATTRIBUTES), "a lamp")
     half_cot = 0.5 / math.tan(0.5 * spot_size) if uv_kind == UV_SPOT and spot_size > 0.0 else 0.0
     if uv_kind == UV_SUN:
         # (Cycles' half_inv_sin_half_angle, computed from its half angle: 1 / (2 sin(angle / 4)), 0 at angle 0)
         half_cot = 0.5 / math.sin(0.25 * spot_size) if spot_size > 0.0 else 0.0
-    return LampEmission(program, registers, textures, layout, np.asarray(matrix, np.float64).copy(), uv_kind, half_cot)
+    if info is None:
+        info = np.zeros(INFO_COLUMNS)
+        info[:3] = np.asarray(matrix, np.float64)[:3, 3]
+    return LampEmission(program, registers, textures, layout, np.asarray(matrix, np.float64).copy(), uv_kind, half_cot,
+                        info=np.asarray(info, np.float64).copy(), random=float(random))

@@ -44,19 +44,22 @@ INLINE void sample_cone(const double *axis, const double *t, const double *b, do
 INLINE double cone_pdf(double cos_max) { return 1.0 / (2.0 * PI * (1.0 - cos_max)); }
 
 /* lamp_graph.c (included after graph.c): what a lamp's node program gives at its point P for light leaving along
- * `leaving` towards a point t away, multiplied into `color` (3); nothing without a program. */
-static void lamp_graph_tint(const LightRecord *light, const double *P, const double *leaving, double t, double *color);
+ * `leaving` towards a point t away, reaching the path `path` (its counts: the Light Path node's depths; NULL: no
+ * bounces), multiplied into `color` (3); nothing without a program. */
+static void lamp_graph_tint(const LightRecord *light, const double *P, const double *leaving, double t,
+                            const LightPath *path, double *color);
 
-/* lamp_graph_tint for a light sample: leaving along -L from its sampled point. */
-INLINE void lamp_sample_tint(const LightRecord *light, LightSample *out)
+/* lamp_graph_tint for a light sample at a vertex of path `path`: leaving along -L from its sampled point. */
+INLINE void lamp_sample_tint(const LightRecord *light, LightSample *out, const LightPath *path)
 {
     if (light->lamp_graph == NULL) return;
     double leaving[3] = {-out->L[0], -out->L[1], -out->L[2]};
-    lamp_graph_tint(light, out->position, leaving, out->distance, out->color);
+    lamp_graph_tint(light, out->position, leaving, out->distance, path, out->color);
 }
 
-/* lamp_graph_tint for a ray from O along D that met the lamp at out->t. */
-INLINE void lamp_hit_tint(const LightRecord *light, const double *O, const double *D, LightHit *out)
+/* lamp_graph_tint for a ray from O along D that met the lamp at out->t, carrying `path` (after its bounce). */
+INLINE void lamp_hit_tint(const LightRecord *light, const double *O, const double *D, LightHit *out,
+                          const LightPath *path)
 {
     if (light->lamp_graph == NULL) return;
     double P[3], leaving[3];
@@ -64,5 +67,5 @@ INLINE void lamp_hit_tint(const LightRecord *light, const double *O, const doubl
         P[c] = O[c] + D[c] * out->t;
         leaving[c] = -D[c];
     }
-    lamp_graph_tint(light, P, leaving, out->t, out->radiance);
+    lamp_graph_tint(light, P, leaving, out->t, path, out->radiance);
 }

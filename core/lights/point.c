@@ -94,12 +94,10 @@ INLINE void point_sample(const LightRecord *light, const LightContext *ctx, cons
     sample_point_light(light, P, u, out);
     out->strength *= ies_lamp_factor(light, out->L) * lamp_falloff(light, out->distance);
     lamp_color(light, out);
-    lamp_sample_tint(light, out);
 }
 
 INLINE int point_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
 {
     if (light->delta != 0.0 || !point_light_hit(light, O, D, t_max, 0, out)) return 0;
-    lamp_hit_tint(light, O, D, out);
     return 1;
 }

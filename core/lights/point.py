@@ -53,7 +53,8 @@ class RoundLight(Light):
         t, b = orthonormal_frame(to_center)
         return Cone(to_center, t, b, np.sqrt(1.0 - sin2_max), d)
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None,
+               paths=None) -> LightSample:
         """The lecture's point light I / r^2; with a radius, a direction uniform in the cone it covers."""
         center = np.asarray(self.position, np.float64)
         if self.delta:
@@ -64,7 +65,7 @@ class RoundLight(Light):
             position = np.broadcast_to(center, points.shape)
             return LightSample(L, distance, self.power * INV_4PI * falloff * self.ies_factor(-L)
                                * self.falloff_factor(distance), delta_pdf(len(points)),
-                               self.emitted(position, -L, distance), position)
+                               self.emitted(position, -L, distance, paths), position)
         # Radiance L_e = P / (4 pi^2 R^2) over the cone, pdf = 1 / (2 pi (1 - cos a)): each sample
         # carries E_normal = L_e 2 pi (1 - cos a).
         cone = self.cone(points) if cone is None else cone
@@ -79,13 +80,14 @@ class RoundLight(Light):
         strength = (sphere_radiance(self.power, self.radius) * 2.0 * math.pi * (1.0 - cone.cos_max) * self.ies_factor(-L)
                     * self.falloff_factor(distance))
         position = points + L * distance[:, None]
-        return LightSample(L, distance, strength, cone_pdf(cone.cos_max), self.emitted(position, -L, distance), position)
+        return LightSample(L, distance, strength, cone_pdf(cone.cos_max), self.emitted(position, -L, distance, paths),
+                           position)
 
     @property
     def hittable(self) -> bool:
         return self.radius > 0.0
 
-    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray, paths=None) -> LightHit:
         """Rays meet a round light of radius R: with soft falloff the disk through its centre facing the
         ray's origin, else the sphere; radiance P / (4 pi^2 R^2); pdf that of `sample`'s cone."""
         n = len(origins)
@@ -105,7 +107,7 @@ class RoundLight(Light):
         radiance = np.where(hit, sphere_radiance(self.power, self.radius), 0.0)
         radiance = self.attenuate(radiance, -directions) * self.falloff_factor(np.where(hit, t, 1.0))
         reach = np.where(hit, t, 1.0)
-        color = self.emitted(origins + directions * reach[:, None], -directions, reach)
+        color = self.emitted(origins + directions * reach[:, None], -directions, reach, paths)
         return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, np.where(hit, cone_pdf(cone.cos_max), 0.0))
 
     def attenuate(self, radiance: np.ndarray, leaving: np.ndarray) -> np.ndarray:

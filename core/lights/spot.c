@@ -34,12 +34,10 @@ INLINE void spot_sample(const LightRecord *light, const LightContext *ctx, const
     sample_spot_light(light, P, u, out);
     out->strength *= ies_lamp_factor(light, out->L) * lamp_falloff(light, out->distance);
     lamp_color(light, out);
-    lamp_sample_tint(light, out);
 }
 
 INLINE int spot_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
 {
     if (light->delta != 0.0 || !point_light_hit(light, O, D, t_max, 1, out)) return 0;
-    lamp_hit_tint(light, O, D, out);
     return 1;
 }

@@ -84,9 +84,10 @@ class SpotLight(RoundLight):
         """The spot's cone masks what leaves along `leaving` (n, 3) unit (and its IES Texture scales it)."""
         return super().attenuate(radiance, leaving) * self.attenuation(leaving)
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None,
+               paths=None) -> LightSample:
         """The point light's sample, times the cone factor for the direction from the (sampled) light point."""
-        sample = super().sample(points, u, cone)
+        sample = super().sample(points, u, cone, paths=paths)
         return sample._replace(strength=sample.strength * self.attenuation(-sample.L))
 
     def pack_fields(self, record) -> None:

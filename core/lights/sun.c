@@ -53,13 +53,11 @@ INLINE void sun_sample(const LightRecord *light, const LightContext *ctx, const 
     sample_sun_light(light, u, out);
     out->strength *= ies_lamp_factor(light, out->L);
     lamp_color(light, out);
-    lamp_sample_tint(light, out);
 }
 
 INLINE int sun_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
 {
     (void)O;
     if (light->delta != 0.0 || !sun_light_hit(light, D, t_max, out)) return 0;
-    lamp_hit_tint(light, O, D, out);
     return 1;
 }

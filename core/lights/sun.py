@@ -71,23 +71,24 @@ class SunLight(Light):
         return Cone(np.broadcast_to(axis, (n, 3)), np.broadcast_to(t, (n, 3)), np.broadcast_to(b, (n, 3)),
                     np.full(n, math.cos(0.5 * self.angle)), np.full(n, np.inf))
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None,
+               paths=None) -> LightSample:
         """One direction with irradiance = strength, no distance attenuation; or a direction in the disk."""
         n = len(points)
         if self.delta:
             L = np.broadcast_to(self.towards(), (n, 3)).copy()
             return LightSample(L, np.full(n, np.inf), float(self.strength) * self.ies_factor(-L), delta_pdf(n),
-                               self.emitted(np.zeros((n, 3)), -L, np.full(n, np.inf)), np.zeros((n, 3)))
+                               self.emitted(np.zeros((n, 3)), -L, np.full(n, np.inf), paths), np.zeros((n, 3)))
         cone = self.cone(points) if cone is None else cone
         L = sample_cone(cone, u)
         return LightSample(L, np.full(n, np.inf), self.disk_strength() * self.ies_factor(-L), cone_pdf(cone.cos_max),
-                           self.emitted(np.zeros((n, 3)), -L, np.full(n, np.inf)), np.zeros((n, 3)))
+                           self.emitted(np.zeros((n, 3)), -L, np.full(n, np.inf), paths), np.zeros((n, 3)))
 
     @property
     def hittable(self) -> bool:
         return not self.delta
 
-    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray, paths=None) -> LightHit:
         """A ray that escapes the scene (t_max inf) inside the sun's disk sees radiance S / (pi sin^2 a)."""
         n = len(origins)
         if self.delta:
@@ -96,7 +97,7 @@ class SunLight(Light):
         inside = (np.einsum("ij,j->i", directions, self.towards()) >= math.cos(half)) & np.isinf(t_max)
         radiance = np.where(inside, self.strength / (math.pi * math.sin(half) ** 2) * self.ies_factor(-directions), 0.0)
         pdf = np.where(inside, cone_pdf(np.full(n, math.cos(half))), 0.0)
-        seen = radiance[:, None] * self.emitted(np.zeros((n, 3)), -directions, np.full(n, np.inf))
+        seen = radiance[:, None] * self.emitted(np.zeros((n, 3)), -directions, np.full(n, np.inf), paths)
         if self.limb is not None:                   # (a Sky Texture's disc: Cycles' limb darkening, bottom to top)
             from ..materials.sky import disc_xyz
             limb = np.asarray(self.limb, np.float64)

@@ -73,7 +73,11 @@ class World:
     volume:   the closures of its Volume output (as Material.volume): a medium everywhere (core/volumes); empty: none
     seen:     the world's node graph compiled (core/lights/world_graph.py WorldProgram),
               which every ray that escapes (the camera's, a BSDF's, a volume's phase-sampled) evaluates per ray with
-              its path, or None: they find `radiance`; light samples always read `radiance` (the bake)
+              its path, or None: they find `radiance`; light samples read `radiance` (the bake), unless samples_seen
+    samples_seen: its light samples run `seen` (not None) with the path at the vertex they light (EMISSION alone as
+              the flags, that vertex's depths), as Cycles evaluates the world's shader per light sample: a graph that
+              reads Light Path's depths, which the bake (a first bounce's: Ray Depth 1, the others 0) fixes; the
+              importance map stays the bake's
     aovs:     its AOV Output nodes, [(AOV name, Color: (3,) or a graph.Link, Value: float or a graph.Link)] (as
               Material.aovs): what camera chains that escape write into the render's shader AOVs of that name
               (core/lights/world_graph.py compile_aovs, core/integrators/passes.py along_ray)
@@ -94,6 +98,7 @@ class World:
     suns: list = field(default_factory=list)
     volume: list = field(default_factory=list)
     seen: Optional[object] = None
+    samples_seen: bool = False
     aovs: list = field(default_factory=list)
     map_size: Optional[tuple] = None
 
@@ -437,6 +442,7 @@ WorldTablesRecord = schema.record("WorldTables", "The world (core/lights/world.p
     ("lights", I32, "1: it lights surfaces"),
     ("hidden", I32, "the HIDDEN_FROM_* bits of the bounces that do not see it (World.hidden)"),
     ("seen", ptr("WorldGraph"), "the program camera rays evaluate where they escape (World.seen), or NULL"),
+    ("samples_seen", I32, "1: its light samples run `seen` with their vertex's path (World.samples_seen)"),
 ])
 
 
@@ -451,6 +457,7 @@ class WorldTables:
                                    lights=world.lights, hidden=int(world.hidden))
         if world.seen is not None:
             record.seen = world.seen.record()
+            record.samples_seen = int(bool(world.samples_seen))
         if world.image is not None:
             image = c(world.image[..., :3], np.float32)
             record.image, record.height, record.width = image, image.shape[0], image.shape[1]

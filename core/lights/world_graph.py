@@ -8,8 +8,11 @@ each light sample of it with EMISSION alone, and bakes it into a map only to imp
 - **Light samples** (and the pdf MIS weighs against): the program is baked once per render into an equirectangular
   image at the texel centres of its world lookup (core/lights/world.py: texel centres at (i + 1/2) / W, linear in
   between), evaluated as a light sample at the first bounce (EMISSION alone: every "Is ... Ray" 0, Ray Depth 1), and
-  importance-sampled from the same map, on both kernels. Between texel centres the bake interpolates linearly where
-  Cycles evaluates the graph itself: a smooth sky or a blurred HDRI matches. The bake runs the program with the
+  importance-sampled from the same map, on both kernels. A graph that reads Light Path's depths (which the bake
+  fixes at the first bounce) is run for each light sample instead, with the path at the vertex it lights
+  (World.samples_seen; core/integrators/vertex.py world_samples_seen, direct.c world_seen_block), as Cycles does.
+  Between texel centres the bake interpolates linearly where Cycles evaluates the graph itself: a smooth sky or a
+  blurred HDRI matches. The bake runs the program with the
   compiled runner (graph.c, `primer_world_bake`) where the library is available, else with the numpy reference
   (`graph.run`); the two agree to float rounding.
 - **Rays that escape** (`World.seen`): a camera ray (straight or through transparent surfaces, which keep Cycles'
@@ -44,11 +47,11 @@ from .world import uv_to_direction
 BAKE_WIDTH = 2048
 # Directions baked per pass of the node-graph program (bounds the registers' memory).
 BAKE_BATCH = 1 << 16
-# The Light Path outputs Primer gives as Cycles does wherever the world is evaluated: every ray that escapes evaluates
-# it with its own path (World.seen), and a light sample of it in Cycles sees EMISSION alone, as the bake does (every
-# "Is ... Ray" 0), and a Ray Length of FLT_MAX. The depths are exact on the rays that escape
-# and at the first bounce's light samples (the bake's: Ray Depth 1, the others 0, Portal Depth too where no Ray
-# Portal came before), not at deeper bounces' light samples, where Cycles gives each sample its vertex's depths.
+# The Light Path outputs the bake gives as Cycles does for every light sample: every ray that escapes evaluates the
+# world with its own path (World.seen), and a light sample of it in Cycles sees EMISSION alone, as the bake does
+# (every "Is ... Ray" 0), and a Ray Length of FLT_MAX. The depths are the bake's only at the first bounce (Ray Depth 1,
+# the others 0), where Cycles gives each light sample its vertex's depths: a world reading them runs its program for
+# each light sample with that vertex's path instead (World.samples_seen, addon/export.py _baked_world).
 EXACT_FOR_LIGHTING = frozenset({"Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray",
                                 "Is Reflection Ray", "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length"})
 

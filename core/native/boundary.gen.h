@@ -1099,6 +1099,10 @@ struct LampGraph {
     double origin[3];                       /* the origin of the light's (camera-relative) frame in the world: the world point is P + origin
 (a sun's: the direction leaving it, Cycles' P = Ng) */
     double half_cot;                        /* spot: cot(spot_size / 2) / 2; sun: 1 / (2 sin(angle / 4)) (Cycles' half_inv_sin_half_angle) */
+    const double *info;                     /* (info_width,) the lamp object's Object Info row (geometry.instance_info's columns: location,
+colour, alpha, pass index, then its Object and Instancer attributes) */
+    int64_t info_width;                     /* its columns */
+    double random;                          /* the lamp object's random number (Object Info's Random) */
 };
 
 /* primer_world_map's arguments: rows row_start .. row_end - 1 of a world's importance map (world.reference_map's numbers). */
@@ -1146,6 +1150,7 @@ struct WorldTables {
     int32_t lights;                         /* 1: it lights surfaces */
     int32_t hidden;                         /* the HIDDEN_FROM_* bits of the bounces that do not see it (World.hidden) */
     const WorldGraph *seen;                 /* the program camera rays evaluate where they escape (World.seen), or NULL */
+    int32_t samples_seen;                   /* 1: its light samples run `seen` with their vertex's path (World.samples_seen) */
 };
 
 /* A world's Background compiled into one program (core/lights/world_graph.py WorldProgram). */
@@ -1413,10 +1418,10 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(8419466616318617950);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "EmitterPdfArgs") == 0) return UINT64_C(3790277589427127310);
-    if (strcmp(name, "LampGraph") == 0) return UINT64_C(3628791564941194139);
+    if (strcmp(name, "LampGraph") == 0) return UINT64_C(4395782087477847524);
     if (strcmp(name, "WorldMapArgs") == 0) return UINT64_C(7748268880605941743);
     if (strcmp(name, "CompensatedMapArgs") == 0) return UINT64_C(6807021337170947407);
-    if (strcmp(name, "WorldTables") == 0) return UINT64_C(6964717275989497168);
+    if (strcmp(name, "WorldTables") == 0) return UINT64_C(9162675623810320939);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7643680578507821954);
