@@ -400,8 +400,8 @@
 #define GRID_WIDTH 4
 /* Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission) (core.volumes.media) */
 #define STEFAN_BOLTZMANN 1.8049357842496396e-14
-/* the most media a ray is in at once in the compiled volume stack (core.volumes.media) */
-#define MAX_MEDIA 16
+/* the most media a ray is in at once (Cycles' MAX_VOLUME_STACK_SIZE less its end marker; Media.room: less the world's entry too where it has one) (core.volumes.media) */
+#define MAX_MEDIA 31
 /* a medium's phase function (core/volumes/phase.py) (core.volumes.phase) */
 #define PHASE_HENYEY_GREENSTEIN 0
 #define PHASE_FOURNIER_FORAND 1
@@ -1339,6 +1339,7 @@ struct VolumeField {
 /* The render's homogeneous media (core/volumes/media.py Media.tables), for media.c. */
 struct MediaTables {
     int64_t count;                          /* V: the media (columns: per volume material, or per object: Media.column_of) */
+    int64_t room;                           /* the most media a ray is in at once (Media.room: MAX_MEDIA, less 1 where the world has a volume) */
     const double *sigma_t;                  /* (V, 3) each column's extinction sigma_a + sigma_s */
     const double *emission;                 /* (V, 3) each column's emission per unit length */
     const double *sigma_s;                  /* (V, 3) each column's scattering coefficient */
@@ -1429,7 +1430,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(7906311474424889977);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(219872329779630044);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(8872374407029382170);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(5908993555021062229);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;
 }

@@ -6,9 +6,10 @@
  * Media.column_of, medium_column; Cycles' stack holds (object, shader) pairs): put last where the ray went through a
  * front face of its mesh, unless already there; taken off through a back face (Cycles' volume_stack_enter_exit).
  * What a stretch of the ray crosses is the world's medium plus each stacked medium. The stack is sparse, as Cycles'
- * is: a render may have any number of media (columns), a ray be in MAX_MEDIA of them at once; a further one it
- * enters is left out, as Cycles leaves out what its stack has no room for (its stack holds 30 objects' media,
- * MAX_VOLUME_STACK_SIZE less the world's and the end). The Python reference's stacks have room for all. */
+ * is: a render may have any number of media (columns), a ray be in media->room of them at once (MAX_MEDIA = 31,
+ * Cycles' MAX_VOLUME_STACK_SIZE 32 less its end marker; 30 where the world has a volume, whose entry Cycles' stack
+ * holds too); a further one it enters is left out, as Cycles leaves out what its stack has no room for, and as the
+ * Python reference's Media.enter does. */
 
 /* A ray's volume stack (Media.start's row, its nonzero places): `size` media, their columns of the MediaTables in
  * increasing order (the order the dense row sums them in) and each one's place in the order the ray entered them
@@ -44,15 +45,15 @@ INLINE int tally_of(const VolumeStack *tally, int32_t v)
 
 /* Media.enter (step +1) and Media.leave (step -1) for one stack and column v: entered, it is put last in the order
  * unless already there; left, it is taken off and the media entered after it move one place down; leaving a medium
- * the ray is not in changes nothing, and one more where the stack is full is left out (Cycles: "exceed the stack
- * limit, ignore"). */
-INLINE void stack_add(VolumeStack *stack, int32_t v, int step)
+ * the ray is not in changes nothing, and one more where the stack holds `room` (MediaTables.room, at most MAX_MEDIA)
+ * is left out (Cycles: "exceed the stack limit, ignore"). */
+INLINE void stack_add(VolumeStack *stack, int32_t v, int step, int64_t room)
 {
     int i = 0;
     while (i < stack->size && stack->column[i] < v) i++;
     int here = i < stack->size && stack->column[i] == v;
     if (step > 0) {
-        if (here || stack->size >= MAX_MEDIA) return;
+        if (here || stack->size >= MAX_MEDIA || stack->size >= room) return;
         int16_t last = 0;
         for (int j = 0; j < stack->size; j++)
             if (stack->place[j] > last) last = stack->place[j];
@@ -208,7 +209,7 @@ INLINE void stack_cross(const MediaTables *media, VolumeStack *stack, const Surf
     int32_t v = medium_column(media, s->material, s->object);
     int backfacing = s->backfacing;
     if (!crossing || v < 0) return;
-    stack_add(stack, v, backfacing ? -1 : 1);
+    stack_add(stack, v, backfacing ? -1 : 1, media->room);
 }
 
 /* A shadow ray's stack from the stack it starts in: without the media shadow rays pass (Media.shadowless). */
@@ -270,7 +271,7 @@ static void camera_media(const MediaTables *media, const GeometryTables *geometr
         if (v >= 0) {
             if (!s.backfacing) tally_add(&entered, v, 1);
             else if (tally_of(&entered, v) > 0) tally_add(&entered, v, -1);
-            else stack_add(stack, v, 1);                /* (each once, nearest first: Cycles' stack init) */
+            else stack_add(stack, v, 1, media->room);   /* (each once, nearest first: Cycles' stack init) */
         }
         /* c. On from just past it (shadows.spawn_ray: off the surface along Ng, on the side D goes to). */
         double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;
