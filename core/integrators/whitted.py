@@ -90,7 +90,7 @@ class WhittedTracing(Integrator):
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         cone, spread = camera_cones(ctx, O, D)     # each ray's cone (graph.LightPath), widened along the specular chain
         media = ctx.extra.get("media")
-        inside = None if media is None else camera_media(ctx, O, D)     # each ray's volume stack (core/volumes)
+        inside = None if media is None else camera_media(ctx, O)     # each ray's volume stack (core/volumes)
         while len(owner):
             check_stop(ctx)
             # 1. The rays of this depth: what they hit past volume-only boundaries, and on the way there the lamps

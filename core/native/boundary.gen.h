@@ -75,6 +75,8 @@
 #define ROULETTE_DIMENSION 6
 /* the most surfaces a camera ray's walk for its media passes (core.integrators.rays) */
 #define CAMERA_MEDIA_HITS 256
+/* the most surfaces with a medium the camera's walk counts (core.integrators.rays) */
+#define VOLUME_WALK_HITS 64
 /* the Ambient Occlusion node's rays' sampling dimension (core.integrators.shader_rays) */
 #define AO_NODE_DIMENSION 121
 /* the Bevel node's probes' sampling dimension (core.integrators.shader_rays) */
