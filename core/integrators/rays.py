@@ -283,8 +283,8 @@ def _walk(ctx: Context, media, O: np.ndarray) -> np.ndarray:
     inside = media.start(n)
     if inside.shape[1] == 0:
         return inside                               # (the world's medium alone: no mesh to be inside)
-    entered = np.full((n, int(VOLUME_WALK_HITS)), -2, np.int64)       # the objects of front faces met (-2: none)
-    taken = np.full((n, int(VOLUME_WALK_HITS)), -2, np.int64)         # the objects of the media stacked
+    entered = np.full((n, int(VOLUME_WALK_HITS)), -2, np.int32)       # the objects of front faces met (-2: none)
+    taken = np.full((n, int(VOLUME_WALK_HITS)), -2, np.int32)         # the objects of the media stacked
     counted = np.zeros(n, np.int64)                 # the surfaces with a medium met
     O = O.copy()
     D = np.broadcast_to(WALK_UP, O.shape)
