@@ -221,7 +221,7 @@ def test_more_media_than_a_ray_is_in_at_once_render_compiled_to_the_references_p
     assert stats.kernels == "compiled"
     assert_same_pixels(reference, compiled)
     notes = [w for w in stats.warnings if "volumes" in w]
-    assert len(notes) == 1 and "at most 16 at once" in notes[0], notes
+    assert len(notes) == 1 and f"at most {int(MAX_MEDIA)} at once" in notes[0], notes
 
 
 def noise_density(scale: float = 3.0):

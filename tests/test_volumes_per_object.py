@@ -4,8 +4,8 @@ sets up one medium per object that holds it, as Cycles' volume stack holds (obje
 closed forms in both kernels: two boxes sharing one absorbing material whose density Object Info drives let through
 exp(-sigma_t(object) d) each, homogeneous (the graph reads nothing of the point: one constant per object) and
 heterogeneous (a field that also reads the point's height, in each object's own coordinates); a box nested in another of the same material adds its
-own medium to the outer one's; more media than a ray is in at once in the compiled stack (MAX_MEDIA) still render
-compiled, said once. A ray is in a medium once (Cycles' volume_stack_enter skips an (object, shader) pair the stack
+own medium to the outer one's; more media than a ray is in at once in Cycles' stack (MAX_MEDIA, less the world's)
+leave the innermost out in both kernels, said once. A ray is in a medium once (Cycles' volume_stack_enter skips an (object, shader) pair the stack
 holds, the first back face takes it off): one object's overlapping or nested shells, the camera inside two shells;
 two overlapping objects of one plain material are two media (media.split_by_object)."""
 from __future__ import annotations
@@ -170,27 +170,41 @@ def test_more_objects_media_than_a_ray_is_in_at_once_render_compiled_to_the_refe
     np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
     assert len(np.unique(compiled.image[..., 0])) > 3                 # (boxes of different densities seen)
     notes = [w for w in compiled.stats.warnings if "volumes" in w]
-    assert len(notes) == 1 and "17 media (17 of them kept per object" in notes[0], notes
+    n = int(MAX_MEDIA) + 1
+    assert len(notes) == 1 and f"{n} media ({n} of them kept per object" in notes[0], notes
+    assert f"at most {int(MAX_MEDIA)} at once" in notes[0] and "MAX_VOLUME_STACK_SIZE 32" in notes[0], notes
+
+
+WORLD_FOG = 0.05        # (the world's absorbing medium's density in the nested boxes' test that has one)
 
 
 @pytest.mark.parametrize("kernels", ["numpy", "compiled"])
-def test_a_ray_in_more_media_at_once_than_the_compiled_stack_holds_leaves_the_innermost_out_there(kernels):
-    """MAX_MEDIA + 1 nested boxes centred at z = 1 (box k: Random 0.01 (k + 1), density 4 x Random, 2 - 0.05 k wide
-    and half that high): a ray down the middle is in each box over its height, the media adding. The Python
-    reference's stacks hold them all: exp(-sum of density_k height_k (1 - colour)); the compiled stack holds
-    MAX_MEDIA at once and, as Cycles does where its stack is full, leaves out the one entered last (the innermost)."""
+@pytest.mark.parametrize("world", [False, True])
+def test_a_ray_in_more_media_at_once_than_cycles_stack_holds_leaves_the_innermost_out_in_both_kernels(world, kernels):
+    """Cycles' volume stack has 32 entries, one the end marker and, with a world volume, one the world's: room + 1
+    nested boxes (31 + 1; 30 + 1 with a world fog) centred at z = 1 (box k: Random 0.01 (k + 1), density 4 x Random,
+    2 - 0.03 k wide and half that high): a ray down the middle is in each box over its height, the media adding, and
+    both kernels hold all but the one entered last (the innermost), as Cycles leaves out what its stack has no room
+    for: exp(-sum over the held boxes of density_k height_k (1 - colour)), times the world fog's exp(-0.05 x 2.9
+    (1 - colour)) over the ray from the near clip plane (z = 2.9) to the floor where there is one. (Primer's compiled
+    stack held 16 before: the 17 to 31 nested media now render there as in the reference.)"""
     scene = two_boxes(times(object_info("Random"), 4.0), values=())
-    n = int(MAX_MEDIA) + 1
-    sizes = 2.0 - 0.05 * np.arange(n)
+    if world:
+        from core.lights import World
+        scene.world = World(color=np.zeros(3), volume=[("ABSORPTION", 1.0, {"color": COLOR, "density": WORLD_FOG})])
+    room = int(MAX_MEDIA) - int(world)
+    n = room + 1
+    sizes = 2.0 - 0.03 * np.arange(n)
     for k, size in enumerate(sizes):
         place(scene, primitives.box((size, size, size / 2.0), center=(0.0, 0.0, 1.0)), 0.01 * (k + 1), "Random")
-    held = n if kernels == "numpy" else n - 1
-    tau = float(np.sum((4.0 * 0.01 * (np.arange(n) + 1) * sizes / 2.0)[:held]))
-    image, _ = rendered(scene, kernels)
-    middle = image[1:3, 1:3]                    # (x, y = +-0.25: inside the innermost box, 1.2 wide)
-    # (rtol 2e-4: the ray steps off each of its 34 surfaces by their robust offset, shortening the depths a little;
-    # the innermost medium left out is 30 % of the light)
-    np.testing.assert_allclose(middle, np.broadcast_to(GLOW * np.exp(-tau * (1.0 - COLOR)), middle.shape), rtol=2e-4)
+    assert prepare(scene, RenderSettings(width=4, height=4)).extra["media"].room == room
+    tau = float(np.sum((4.0 * 0.01 * (np.arange(n) + 1) * sizes / 2.0)[:room])) + (WORLD_FOG * 2.9 if world else 0.0)
+    image, stats = rendered(scene, kernels)
+    middle = image[1:3, 1:3]                    # (x, y = +-0.25: inside the innermost box, 1.07 wide)
+    # (rtol 4e-4: the ray steps off each of its 64 surfaces by their robust offset, shortening the depths a little;
+    # the innermost medium left out is 40 % of the light)
+    np.testing.assert_allclose(middle, np.broadcast_to(GLOW * np.exp(-tau * (1.0 - COLOR)), middle.shape), rtol=4e-4)
+    assert any(f"a ray is in at most {room} at once" in w for w in stats.warnings), stats.warnings
 
 
 @pytest.mark.parametrize("kernels", ["numpy", "compiled"])

@@ -157,3 +157,44 @@ def test_whitted_marches_a_slab_whose_density_grows_linearly_to_exp_of_minus_its
     scene.add_mesh(primitives.box((4.0, 4.0, 1.0), center=(0.0, 0.0, 1.0)), materials=np.array([1]))
     expected = np.array([1.0, 2.0, 0.5]) * np.exp(-2.5 * (1.0 - COLOR))
     np.testing.assert_allclose(rendered(scene).image[..., :3], np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+
+
+def test_whitteds_denoising_albedo_and_normal_see_a_scattering_slab_as_the_path_tracers_camera_rays_do():
+    """The scattering slab (sigma_s = sigma_t = (0.5, 1, 2), 0.6 deep) over the diffuse floor (0.8): Whitted's
+    features are the path tracer's for its camera rays (features.in_media then the floor's vertex): the slab's albedo
+    sigma_s / sigma_t (1 - T), T = exp(-sigma_t 0.6), plus the floor's 0.8 times the odds of passing it, Cycles'
+    channel-weighed T (here the mean of T: each channel's share albedo + T is 1), and the normal up (the camera looks
+    straight down: its back direction and the floor's normal agree). Whitted's albedo used to hold the light the
+    slab scatters to the camera and the floor's 0.8 whole."""
+    sigma = np.array([0.5, 1.0, 2.0])
+    T = np.exp(-sigma * 0.6)
+    whitted = rendered(scattering_scene(), denoising_features=True).aux
+    direct = rendered(scattering_scene(), denoising_features=True, integrator="direct", max_bounces=0).aux
+    expected = (1.0 - T) + 0.8 * T.mean()
+    # (within 1e-5: the rays step off the slab's faces by their robust offset, shortening its depth a little)
+    np.testing.assert_allclose(whitted["denoising_albedo"], np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+    np.testing.assert_allclose(whitted["denoising_normal"], np.broadcast_to([0.0, 0.0, 1.0], (4, 4, 3)), atol=1e-6)
+    for name in ("denoising_albedo", "denoising_normal"):
+        np.testing.assert_allclose(whitted[name], direct[name], rtol=1e-6, atol=1e-7, err_msg=name)
+
+
+def test_whitteds_emission_and_environment_passes_see_through_media_as_the_path_tracers():
+    """A glowing floor (GLOW) half covered by a slab 0.8 deep (x < 0) that absorbs sigma and emits e, under a world
+    seen beside the floor: the Emission pass is e (1 - exp(-sigma d)) / sigma + GLOW exp(-sigma d) through the slab,
+    GLOW beside it, and both passes are the path tracer's (Whitted's used to leave the media out: GLOW everywhere and
+    no emission of the slab)."""
+    glow, sigma, e = np.array([1.0, 2.0, 0.5]), np.array([0.5, 1.0, 2.0]), np.array([0.3, 0.2, 0.1])
+    scene = Scene(camera=camera_above(scale=4.0))
+    scene.world = World(color=np.array([0.3, 0.4, 0.5]))
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=glow))
+    scene.add_mesh(primitives.plane(3.0), materials=np.array([0]))                  # (x, y in -1.5 .. 1.5)
+    scene.materials.append(fog(closure="COEFFICIENTS", absorption=sigma, scatter=np.zeros(3), emission=e))
+    scene.add_mesh(primitives.box((2.0, 4.0, 0.8), center=(-1.0, 0.0, 1.0)), materials=np.array([1]))
+    settings = dict(width=8, height=8, passes=("emission", "environment"))
+    whitted, path = rendered(scene, **settings).aux, rendered(scene, integrator="path", **settings).aux
+    through = e * (1.0 - np.exp(-sigma * 0.8)) / sigma + glow * np.exp(-sigma * 0.8)
+    np.testing.assert_allclose(whitted["emission"][2:6, 2:4], np.broadcast_to(through, (4, 2, 3)), rtol=1e-5)
+    np.testing.assert_allclose(whitted["emission"][2:6, 4:6], np.broadcast_to(glow, (4, 2, 3)), rtol=1e-6)
+    assert whitted["environment"][0, 0].max() > 0.1                 # (the world beside the floor)
+    for name in ("emission", "environment"):
+        np.testing.assert_allclose(whitted[name], path[name], rtol=1e-6, atol=1e-7, err_msg=name)

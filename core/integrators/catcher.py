@@ -381,7 +381,7 @@ def front_media(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, pixel
     from .rays import camera_media
     from .. import volumes
     k = len(O)
-    inside = camera_media(ctx, O, D)
+    inside = camera_media(ctx, O)
     stretch = media.along(inside, O, D)
     scattered = np.zeros((k, 3))
     groups = lightgroups.tally(ctx, k)

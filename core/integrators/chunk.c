@@ -30,17 +30,18 @@ static void camera_ray_cone(const ChunkParams *params, const CameraBlock *b, int
 }
 
 /* The media each camera lane of block b starts in (rays.camera_media), into H->lane_inside, with the extinction and
- * emission along it (H->lane_sigma, lane_emission). Rays from the point the last walk started at take its stack (a
- * perspective camera walks once per block). */
+ * emission along it (H->lane_sigma, lane_emission). Rays from the point the last walk started at take its stack (the
+ * walk goes up from the ray's origin whatever way it looks: a perspective camera with Clip Start 0 walks once per
+ * block). */
 static void camera_lane_media(const ChunkParams *params, const CameraBlock *b, BlockHits *H)
 {
     double walked[3] = {NAN, NAN, NAN};
     VolumeStack stack;
     stack_empty(&stack);
     for (int64_t k = 0; k < b->n; k++) {
-        double O[3] = {b->O[0][k], b->O[1][k], b->O[2][k]}, D[3] = {b->D[0][k], b->D[1][k], b->D[2][k]};
+        double O[3] = {b->O[0][k], b->O[1][k], b->O[2][k]};
         if (b->valid[k] && !(O[0] == walked[0] && O[1] == walked[1] && O[2] == walked[2])) {
-            camera_media(params->media, params->geometry, (Intersect8)params->intersect8, params->scene, O, D, &stack);
+            camera_media(params->media, params->geometry, (Intersect8)params->intersect8, params->scene, O, &stack);
             for (int c = 0; c < 3; c++) walked[c] = O[c];
         }
         H->lane_inside[k] = stack;

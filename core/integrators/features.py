@@ -35,7 +35,8 @@ Each pixel's features are the mean over all its samples (the film's FILM_BUFFER 
 What Primer approximates: a closure's albedo is its weight (Cycles multiplies a microfacet's weight by its
 Fresnel-averaged reflectance); the normal is in world space, like Primer's Normal pass (Cycles writes its
 Denoising Normal in camera space; Open Image Denoise accepts either, as long as it is one space). Whitted's
-tracer writes the features of the camera's hit alone (its two specular branches are not one path).
+tracer writes the features of the camera's hit alone (its two specular branches are not one path), and those of the
+media its camera rays cross (in_media) as the path tracer's camera rays do.
 """
 from __future__ import annotations
 

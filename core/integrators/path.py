@@ -337,7 +337,7 @@ class PathTracing(Integrator):
         groups = lightgroups.tally(ctx, len(O))
         # The media the camera rays start in (core/volumes): the world's, and those of the meshes around the camera.
         media = ctx.extra.get("media")
-        inside = None if media is None else camera_media(ctx, O, D)
+        inside = None if media is None else camera_media(ctx, O)
         stretch = None if media is None else media.along(inside, O, D)
         L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch, times)
         # The denoising features (features.py): what the camera sees itself (not what the media scatter towards it),

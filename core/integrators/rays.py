@@ -17,7 +17,7 @@ from ..materials import graph as graph_
 from ..native import schema
 from ..geometry.surface import surface_at_hits
 from ..lights import LightFlags
-from ..visibility import (EVERY_RAY, HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY,
+from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY,
                           HIDDEN_FROM_TRANSMISSION)
 from . import clamp as clamp_
 from . import lightgroups, shadows
@@ -221,8 +221,13 @@ def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, gr
     return seen
 
 
-# The most surfaces camera_media walks past along a ray (Cycles' volume stack init stops at its stack size too).
+# The most surfaces camera_media walks past along a ray (a bound on the walk through surfaces without a medium).
 CAMERA_MEDIA_HITS = schema.constant("CAMERA_MEDIA_HITS", 256, "the most surfaces a camera ray's walk for its media passes")
+# The most surfaces of media camera_media's walk counts: Cycles' integrator_volume_stack_init records at most twice
+# its volume stack's size of them (2 x MAX_VOLUME_STACK_SIZE, 64, where the scene sizes the stack to the full 32).
+VOLUME_WALK_HITS = schema.constant("VOLUME_WALK_HITS", 64, "the most surfaces with a medium the camera's walk counts")
+# The way camera_media walks: world up, as Cycles ("any direction works, Z up is a guess to get the fewest hits").
+WALK_UP = np.array([0.0, 0.0, 1.0])
 
 
 def camera_back(ctx: Context) -> np.ndarray:
@@ -232,16 +237,16 @@ def camera_back(ctx: Context) -> np.ndarray:
     return axis / max(float(np.linalg.norm(axis)), 1e-300)
 
 
-def camera_media(ctx: Context, O: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """The media (n, V) int16 camera rays O, D (n, 3) start in (core/volumes Media.crossed): walking along each ray
-    to its end, a back face of a volume material whose front face the walk has not met first is a medium the ray
-    started in (Cycles' integrator_intersect_volume_stack). Rays from one point (a perspective camera) walk once."""
+def camera_media(ctx: Context, O: np.ndarray) -> np.ndarray:
+    """The media (n, V) int16 camera rays from O (n, 3) (on the near clip plane) start in (core/volumes Media.crossed),
+    by Cycles' integrator_volume_stack_init (`_walk`): each walks from its own origin straight up, whatever way the
+    ray looks; rays from one point walk once (a perspective camera with Clip Start 0 and no depth of field)."""
     media = ctx.extra["media"]
     if not may_start_inside(ctx, O):
         return media.start(len(O))                  # (no ray starts within a mesh medium's bounds: no walk)
     if len(O) and (O == O[0]).all():
-        return np.repeat(camera_media(ctx, O[:1], D[:1]), len(O), axis=0) if len(O) > 1 else _walk(ctx, media, O, D)
-    return _walk(ctx, media, O, D)
+        return np.repeat(camera_media(ctx, O[:1]), len(O), axis=0) if len(O) > 1 else _walk(ctx, media, O)
+    return _walk(ctx, media, O)
 
 
 def may_start_inside(ctx: Context, O: np.ndarray) -> bool:
@@ -267,24 +272,23 @@ def media_bounds(geometry, media) -> tuple:
     return low, high
 
 
-def absent(geometry, prim: np.ndarray) -> np.ndarray:
-    """Which triangles `prim` (k,) int64 belong to objects hidden from every kind of ray (EVERY_RAY: the shadow
-    catchers' catcher-only scene hides the other objects so): (k,) bool. Cycles' rays never meet them."""
-    if not geometry.hides(EVERY_RAY):
-        return np.zeros(len(prim), bool)
-    owner = geometry.owners(np.asarray(prim, np.int64))
-    return (owner >= 0) & ((geometry.instance_hidden[np.maximum(owner, 0)] & EVERY_RAY) == EVERY_RAY)
-
-
-def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """camera_media's walk for rays O, D (n, 3): the stacks (n, V) int16 they start in (Media.start: each medium
-    once, in the order the walk meets their back faces, as Cycles' integrator_volume_stack_init adds them)."""
-    inside = media.start(len(O))
+def _walk(ctx: Context, media, O: np.ndarray) -> np.ndarray:
+    """camera_media's walk, Cycles' integrator_volume_stack_init, for rays from O (n, 3): the stacks (n, V) int16 they
+    start in. From each origin straight up (WALK_UP) to the end of the scene, past every surface, meeting only the
+    objects camera rays see (an object hidden from them is not there, as for the camera rays themselves): a front
+    face of a medium's surface marks its object as entered on the way, and a back face of an object the walk has not
+    entered, nor taken already, puts its medium on the stack, last (nearest first; each object once, its first back
+    face's medium); past VOLUME_WALK_HITS surfaces with a medium the walk stops, as Cycles' does."""
+    n = len(O)
+    inside = media.start(n)
     if inside.shape[1] == 0:
         return inside                               # (the world's medium alone: no mesh to be inside)
-    entered = media.start(len(O))                   # front faces met along the way, not yet left
+    entered = np.full((n, int(VOLUME_WALK_HITS)), -2, np.int32)       # the objects of front faces met (-2: none)
+    taken = np.full((n, int(VOLUME_WALK_HITS)), -2, np.int32)         # the objects of the media stacked
+    counted = np.zeros(n, np.int64)                 # the surfaces with a medium met
     O = O.copy()
-    alive = np.arange(len(O))
+    D = np.broadcast_to(WALK_UP, O.shape)
+    alive = np.arange(n)
     for _ in range(CAMERA_MEDIA_HITS):
         found = ctx.geometry.tracer.intersect(O[alive], D[alive], np.full(len(alive), np.inf))
         hit = np.flatnonzero(found.hit)
@@ -293,14 +297,19 @@ def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
         rows = alive[hit]
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
-        column = media.column_of(surface.material, media.objects_of(ctx.geometry, surface.prim))
-        has = (column >= 0) & ~absent(ctx.geometry, surface.prim)     # (an object hidden from every ray: not there)
-        back, front = has & surface.backfacing, has & ~surface.backfacing
-        np.add.at(entered, (rows[front], column[front]), 1)
-        left = back & (entered[rows, np.maximum(column, 0)] > 0)
-        np.add.at(entered, (rows[left], column[left]), -1)
-        started = back & ~left
-        media.enter(inside, rows[started], column[started])     # (each once, nearest first: Cycles')
+        objects = ctx.geometry.owners(np.asarray(surface.prim, np.int64))
+        column = media.column_of(surface.material, objects if media.objects_of(ctx.geometry, surface.prim) is not None
+                                 else None)
+        has = (column >= 0) & ~ctx.geometry.hidden(surface.prim, HIDDEN_FROM_CAMERA)
+        front = np.flatnonzero(has & ~surface.backfacing)
+        entered[rows[front], counted[rows[front]]] = objects[front]
+        back = np.flatnonzero(has & surface.backfacing)
+        new = back[~(entered[rows[back]] == objects[back, None]).any(axis=1)
+                   & ~(taken[rows[back]] == objects[back, None]).any(axis=1)]
+        media.enter(inside, rows[new], column[new])         # (last, unless the stack is full: Media.room)
+        new = new[inside[rows[new], column[new]] > 0]
+        taken[rows[new], counted[rows[new]]] = objects[new]
+        counted[rows[has]] += 1
         O[rows] = shadows.spawn_ray(surface.I, surface.Ng, D[rows], shadows.error_bound(surface.I, surface.vertices))
-        alive = rows
+        alive = rows[counted[rows] < VOLUME_WALK_HITS]
     return inside

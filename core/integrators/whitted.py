@@ -49,7 +49,7 @@ from . import passes as passes_
 from . import volume as volume_
 from .base import Context, Integrator, Radiance, Recorder, check_stop
 from .path import through_transparent
-from .rays import camera_cones, camera_media, lamps_seen, nearest_seen
+from .rays import camera_back, camera_cones, camera_media, lamps_seen, nearest_seen
 from .shadows import spawn_ray
 from .vertex import PathState, media_beyond, shade_vertex
 
@@ -90,7 +90,7 @@ class WhittedTracing(Integrator):
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         cone, spread = camera_cones(ctx, O, D)     # each ray's cone (graph.LightPath), widened along the specular chain
         media = ctx.extra.get("media")
-        inside = None if media is None else camera_media(ctx, O, D)     # each ray's volume stack (core/volumes)
+        inside = None if media is None else camera_media(ctx, O)     # each ray's volume stack (core/volumes)
         while len(owner):
             check_stop(ctx)
             # 1. The rays of this depth: what they hit past volume-only boundaries, and on the way there the lamps
@@ -99,8 +99,11 @@ class WhittedTracing(Integrator):
             #    refraction's (transmission); rays.nearest_seen.)
             kind = HIDDEN_FROM_CAMERA if depth == 0 else np.where(crossing, HIDDEN_FROM_TRANSMISSION, HIDDEN_FROM_GLOSSY)
             seen = lightgroups.tally(ctx, len(owner))     # what these rays see, by source
-            found, L_way, T, inside, rays = self.along_ray(ctx, O, D, t_max, kind, inside, throughput, pixel[owner],
-                                                          sample[owner], depth, recorder, seen)
+            # (the camera's rays write the features and first-hit passes of the media they cross as they go)
+            looks = dict(feats=feats, data=data) if depth == 0 else {}
+            found, L_way, T, inside, rays, L_scattered = self.along_ray(ctx, O, D, t_max, kind, inside, throughput,
+                                                                        pixel[owner], sample[owner], depth, recorder,
+                                                                        seen, **looks)
             shadow_rays += rays
             if depth == 0:
                 camera_hit = found.hit.copy()
@@ -125,8 +128,8 @@ class WhittedTracing(Integrator):
                 groups.add_rows(owner, seen, throughput)
             throughput = throughput * T                 # (what reaches the hits through the media)
             if feats is not None and depth == 0:
-                feats.albedo += L_out                   # what the camera sees itself
-            if data is not None and depth == 0:
+                feats.albedo += L_out - L_scattered     # what the camera sees itself (not what media scatter to it)
+            if data is not None and depth == 0 and media is None:     # (with media: along_ray, piece by piece)
                 passes_.along_ray(ctx, data, owner, np.ones((n, 3)), O, D, found.hit, np.where(found.hit, found.t, t_max))
             hit = np.flatnonzero(found.hit)
             if len(hit) == 0:
@@ -158,11 +161,12 @@ class WhittedTracing(Integrator):
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          rays=shader_rays.for_hits(ctx, surface, pixel[rows], sample[rows], depth * (1 << 16)))
             if feats is not None and depth == 0:
-                one = np.ones((len(hit), 3))
-                features_.at_vertex(feats, rows, np.ones(len(hit), bool), one, one, shader, shader.emission)
+                # (throughput: what the media let through to the hit, as the path tracer's camera vertex)
+                features_.at_vertex(feats, rows, np.ones(len(hit), bool), throughput[hit], np.ones((len(hit), 3)),
+                                    shader, shader.emission)
             if data is not None and depth == 0:
-                passes_.at_vertex(ctx, data, np.arange(len(hit)), rows, 0, surface, shader, wo,
-                                  np.ones((len(hit), 3)), pixel[rows], sample[rows])
+                passes_.at_vertex(ctx, data, np.arange(len(hit)), rows, 0, surface, shader, wo, throughput[hit],
+                                  pixel[rows], sample[rows])
             children = self.specular_rays(s, surface, shader, wo, throughput[hit], glossy[hit], transmission[hit])
             if children is None or depth + 1 > s.max_bounces:
                 break
@@ -179,23 +183,28 @@ class WhittedTracing(Integrator):
                         features=None if feats is None else feats.stacked(), passes=data)
 
     def along_ray(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, kind, inside, throughput,
-                  pixel: np.ndarray, sample: np.ndarray, depth: int, recorder: Recorder, seen=None) -> tuple:
+                  pixel: np.ndarray, sample: np.ndarray, depth: int, recorder: Recorder, seen=None, feats=None,
+                  data=None) -> tuple:
         """What rays O, D (k, 3) up to t_max (k,) of `kind` (HIDDEN_FROM_* bit, int or (k,)) meet, past volume-only
         boundaries: (the Hits of their first surface, t from O; the light L (k, 3) that reaches O on the way: lamps
         passed, and the media's emission and single scattering; T (k, 3) what the media let through to the surface
-        or the world; the stacks (k, V) there, or None without media; shadow rays traced). inside: (k, V) the stacks
-        the rays start with, or None; throughput (k, 3) what they carry (the scattering's channel odds); seen: a
-        lightgroups.GroupLight of the k rays that receives L by source, or None."""
+        or the world; the stacks (k, V) there, or None without media; shadow rays traced; the part (k, 3) of L the
+        media scattered). inside: (k, V) the stacks the rays start with, or None; throughput (k, 3) what they carry
+        (the scattering's channel odds); seen: a lightgroups.GroupLight of the k rays that receives L by source, or
+        None. feats, data: for the camera's rays (the k rays are the camera's), its denoising Features and first-hit
+        DataPasses, which the media write into piece by piece as the path tracer's camera rays do (features.in_media,
+        passes.along_ray), or None."""
         media = ctx.extra.get("media")
         found = nearest_seen(ctx, O, D, t_max, kind)
         T = np.ones((len(O), 3))
         if media is None:
             lamps = lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), seen, escaped=~found.hit)
-            return found, lamps, T, None, 0
+            return found, lamps, T, None, 0, np.zeros((len(O), 3))
         n = len(O)
         kind = np.broadcast_to(np.asarray(kind, np.int64), (n,))
         hit, t, prim, u, v = np.zeros(n, bool), np.full(n, np.inf), np.zeros(n, np.int64), np.zeros(n), np.zeros(n)
         L, inside, o, gone = np.zeros((n, 3)), inside.copy(), O.copy(), np.zeros(n)     # (o: each piece's start)
+        S = np.zeros((n, 3))                                    # (the part of L the media scatter)
         alive, step, shadow_rays = np.arange(n), found, 0
         for piece in range(shadows.VOLUME_BOUNDS_MAX + 1):
             # a. The stretch to the surface met (or on to the world): lamps, emission and scattering, seen through T.
@@ -211,7 +220,12 @@ class WhittedTracing(Integrator):
                                                         depth * (1 << 16) + piece * (1 << 24), depth,
                                                         through_transparent, recorder, part)
                 light, shadow_rays = light + scattered, shadow_rays + rays
+                S[alive] += T[alive] * scattered
             L[alive] += T[alive] * light
+            if feats is not None:           # (a scattering medium's albedo, and the odds the path passes it)
+                features_.in_media(feats, stretch, end, camera_back(ctx), owner=alive, throughput=T[alive])
+            if data is not None:            # (lamps passed, the media's emission, the world through them)
+                passes_.along_ray(ctx, data, alive, T[alive], o[alive], D[alive], step.hit, end, stretch)
             if seen is not None:
                 seen.add_rows(alive, part, T[alive])
             T[alive] *= stretch.transmittance(np.where(step.hit, step.t, np.inf))
@@ -235,7 +249,7 @@ class WhittedTracing(Integrator):
             gone[alive] += np.einsum("ij,ij->i", P - o[alive], D[alive])
             o[alive] = P
             step = nearest_seen(ctx, o[alive], D[alive], t_max[alive] - gone[alive], kind[alive])
-        return type(found)(hit, t, prim, u, v, None), L, T, inside, shadow_rays
+        return type(found)(hit, t, prim, u, v, None), L, T, inside, shadow_rays, S
 
     def specular_rays(self, s, surface, shader, wo, throughput, glossy, transmission):
         """The child rays of every perfectly specular (singular) reflection and smooth glass closure: (hit index (k,), O (k, 3), D (k, 3), throughput

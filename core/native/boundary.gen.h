@@ -75,6 +75,8 @@
 #define ROULETTE_DIMENSION 6
 /* the most surfaces a camera ray's walk for its media passes (core.integrators.rays) */
 #define CAMERA_MEDIA_HITS 256
+/* the most surfaces with a medium the camera's walk counts (core.integrators.rays) */
+#define VOLUME_WALK_HITS 64
 /* the Ambient Occlusion node's rays' sampling dimension (core.integrators.shader_rays) */
 #define AO_NODE_DIMENSION 121
 /* the Bevel node's probes' sampling dimension (core.integrators.shader_rays) */
@@ -400,8 +402,8 @@
 #define GRID_WIDTH 4
 /* Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission) (core.volumes.media) */
 #define STEFAN_BOLTZMANN 1.8049357842496396e-14
-/* the most media a ray is in at once in the compiled volume stack (core.volumes.media) */
-#define MAX_MEDIA 16
+/* the most media a ray is in at once (Cycles' MAX_VOLUME_STACK_SIZE less its end marker; Media.room: less the world's entry too where it has one) (core.volumes.media) */
+#define MAX_MEDIA 31
 /* a medium's phase function (core/volumes/phase.py) (core.volumes.phase) */
 #define PHASE_HENYEY_GREENSTEIN 0
 #define PHASE_FOURNIER_FORAND 1
@@ -1344,6 +1346,7 @@ struct VolumeField {
 /* The render's homogeneous media (core/volumes/media.py Media.tables), for media.c. */
 struct MediaTables {
     int64_t count;                          /* V: the media (columns: per volume material, or per object: Media.column_of) */
+    int64_t room;                           /* the most media a ray is in at once (Media.room: MAX_MEDIA, less 1 where the world has a volume) */
     const double *sigma_t;                  /* (V, 3) each column's extinction sigma_a + sigma_s */
     const double *emission;                 /* (V, 3) each column's emission per unit length */
     const double *sigma_s;                  /* (V, 3) each column's scattering coefficient */
@@ -1434,7 +1437,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(7906311474424889977);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(219872329779630044);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(8872374407029382170);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(5908993555021062229);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;
 }

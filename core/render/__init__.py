@@ -570,8 +570,8 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     """Why a scene with media takes the Python reference ('' where the compiled kernel renders it, and without media).
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
     Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c), any number of them (its
-    volume stack is sparse); that a ray is in at most MAX_MEDIA of them at once there is said once in `warnings` where
-    a scene has more, and so is that Whitted's tracer, which renders media on the Python reference, scatters once
+    volume stack is sparse); that a ray is in at most Media.room of them at once (Cycles' limit, in both kernels) is
+    said once in `warnings` where a scene has more, and so is that Whitted's tracer, which renders media on the Python reference, scatters once
     (no Volume Bounces). (prepare says which light group the emission
     of overlapping media of different groups goes to.)"""
     media = ctx.extra.get("media")
@@ -594,16 +594,17 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                    "corrects the march by ratio tracking)" if media.heterogeneous else ""))
         if note not in warnings:
             warnings.append(note)
-    if len(media.g) > volumes.MAX_MEDIA:
-        # (the compiled stack is sparse, as Cycles': any number of media, MAX_MEDIA of them at once along a ray)
+    if len(media.g) > media.room:
+        # (both kernels' stacks are Cycles': any number of media, Media.room of them at once along a ray)
         kept = int((media.keyed >= 0).sum())
         note = (f"volumes: {len(media.g)} media"
                 + (f" ({len(media.g) - int((media.column >= 0).sum())} of them kept per object for {kept} "
                    f"material{'s' if kept > 1 else ''}: a volume that reads Object Info, a field on objects of other "
                    "placements or texture spaces, on objects that overlap, or emitting into several light "
                    "groups)" if kept else "")
-                + f"; a ray is in at most {int(volumes.MAX_MEDIA)} at once in the compiled kernel's volume stack and "
-                  "leaves a further one out (Cycles: 30)")
+                + f"; a ray is in at most {media.room} at once and leaves out a further one it enters, as Cycles' "
+                  f"volume stack does (MAX_VOLUME_STACK_SIZE 32 less its end marker"
+                  + (" and the world's volume" if media.room < int(volumes.MAX_MEDIA) else "") + ")")
         if note not in warnings:
             warnings.append(note)
     return ""

@@ -6,14 +6,14 @@
  * Media.column_of, medium_column; Cycles' stack holds (object, shader) pairs): put last where the ray went through a
  * front face of its mesh, unless already there; taken off through a back face (Cycles' volume_stack_enter_exit).
  * What a stretch of the ray crosses is the world's medium plus each stacked medium. The stack is sparse, as Cycles'
- * is: a render may have any number of media (columns), a ray be in MAX_MEDIA of them at once; a further one it
- * enters is left out, as Cycles leaves out what its stack has no room for (its stack holds 30 objects' media,
- * MAX_VOLUME_STACK_SIZE less the world's and the end). The Python reference's stacks have room for all. */
+ * is: a render may have any number of media (columns), a ray be in media->room of them at once (MAX_MEDIA = 31,
+ * Cycles' MAX_VOLUME_STACK_SIZE 32 less its end marker; 30 where the world has a volume, whose entry Cycles' stack
+ * holds too); a further one it enters is left out, as Cycles leaves out what its stack has no room for, and as the
+ * Python reference's Media.enter does. */
 
 /* A ray's volume stack (Media.start's row, its nonzero places): `size` media, their columns of the MediaTables in
  * increasing order (the order the dense row sums them in) and each one's place in the order the ray entered them
- * (1 .. the first; higher: entered later). camera_media's tally of the front faces met uses the same record with
- * counts in place of places (tally_add). */
+ * (1 .. the first; higher: entered later). */
 typedef struct {
     int32_t column[MAX_MEDIA];
     int16_t place[MAX_MEDIA];
@@ -34,25 +34,17 @@ INLINE int stack_count(const VolumeStack *stack, int32_t v)
     return 0;
 }
 
-/* tally_add's count of column v (0: none). */
-INLINE int tally_of(const VolumeStack *tally, int32_t v)
-{
-    for (int i = 0; i < tally->size; i++)
-        if (tally->column[i] == v) return tally->place[i];
-    return 0;
-}
-
 /* Media.enter (step +1) and Media.leave (step -1) for one stack and column v: entered, it is put last in the order
  * unless already there; left, it is taken off and the media entered after it move one place down; leaving a medium
- * the ray is not in changes nothing, and one more where the stack is full is left out (Cycles: "exceed the stack
- * limit, ignore"). */
-INLINE void stack_add(VolumeStack *stack, int32_t v, int step)
+ * the ray is not in changes nothing, and one more where the stack holds `room` (MediaTables.room, at most MAX_MEDIA)
+ * is left out (Cycles: "exceed the stack limit, ignore"). */
+INLINE void stack_add(VolumeStack *stack, int32_t v, int step, int64_t room)
 {
     int i = 0;
     while (i < stack->size && stack->column[i] < v) i++;
     int here = i < stack->size && stack->column[i] == v;
     if (step > 0) {
-        if (here || stack->size >= MAX_MEDIA) return;
+        if (here || stack->size >= MAX_MEDIA || stack->size >= room) return;
         int16_t last = 0;
         for (int j = 0; j < stack->size; j++)
             if (stack->place[j] > last) last = stack->place[j];
@@ -74,35 +66,6 @@ INLINE void stack_add(VolumeStack *stack, int32_t v, int step)
     stack->size--;
     for (int j = 0; j < stack->size; j++)
         if (stack->place[j] > gone) stack->place[j]--;
-}
-
-/* camera_media's tally of front faces met and not yet left: column v's count changed by `step` (+1 or -1), never
- * below 0 (a column at 0 taken out); one more where the record is full is left out. */
-INLINE void tally_add(VolumeStack *tally, int32_t v, int step)
-{
-    int i = 0;
-    while (i < tally->size && tally->column[i] < v) i++;
-    if (i < tally->size && tally->column[i] == v) {
-        int next = (int)tally->place[i] + step;
-        if (next > 0) {
-            tally->place[i] = (int16_t)next;
-            return;
-        }
-        for (int j = i; j + 1 < tally->size; j++) {
-            tally->column[j] = tally->column[j + 1];
-            tally->place[j] = tally->place[j + 1];
-        }
-        tally->size--;
-        return;
-    }
-    if (step <= 0 || tally->size >= MAX_MEDIA) return;
-    for (int j = tally->size; j > i; j--) {
-        tally->column[j] = tally->column[j - 1];
-        tally->place[j] = tally->place[j - 1];
-    }
-    tally->column[i] = v;
-    tally->place[i] = (int16_t)step;
-    tally->size++;
 }
 
 /* lightgroups.LightGroups.emission_groups for one stack: the light group of the media's emission along a ray in it,
@@ -208,7 +171,7 @@ INLINE void stack_cross(const MediaTables *media, VolumeStack *stack, const Surf
     int32_t v = medium_column(media, s->material, s->object);
     int backfacing = s->backfacing;
     if (!crossing || v < 0) return;
-    stack_add(stack, v, backfacing ? -1 : 1);
+    stack_add(stack, v, backfacing ? -1 : 1, media->room);
 }
 
 /* A shadow ray's stack from the stack it starts in: without the media shadow rays pass (Media.shadowless). */
@@ -230,22 +193,33 @@ INLINE int is_boundary(const MediaTables *media, int64_t material)
     return media != NULL && media->boundary[material] != 0;
 }
 
-/* rays.camera_media for one camera ray from O along D: the stack it starts in. Walking along the ray to its end
- * (past every surface, CAMERA_MEDIA_HITS at most), a back face of a volume material whose front face the walk has
- * not met first is a medium the ray started in (Cycles' integrator_intersect_volume_stack). A ray from outside the
- * box of the media's triangles starts in none. */
+/* Whether `object` is among the first `n` of `objects`. */
+INLINE int object_among(const int64_t *objects, int n, int64_t object)
+{
+    for (int i = 0; i < n; i++)
+        if (objects[i] == object) return 1;
+    return 0;
+}
+
+/* rays.camera_media for one camera ray from O (on the near clip plane): the stack it starts in, by Cycles'
+ * integrator_volume_stack_init (rays._walk). From O straight up (WALK_UP: world +z, whatever way the ray looks) past
+ * every surface (CAMERA_MEDIA_HITS at most), meeting only objects camera rays see: a front face of a medium's surface
+ * marks its object entered; a back face of an object neither entered on the way nor taken already puts its medium
+ * on the stack, last (nearest first, each object once); past VOLUME_WALK_HITS surfaces with a medium the walk stops.
+ * A ray from outside the box of the media's triangles starts in none. */
 static void camera_media(const MediaTables *media, const GeometryTables *geometry, Intersect8 intersect, void *scene,
-                         const double *O, const double *D, VolumeStack *stack)
+                         const double *O, VolumeStack *stack)
 {
     stack_empty(stack);
     if (media->count == 0) return;
     for (int c = 0; c < 3; c++)
         if (!(O[c] >= media->low[c] && O[c] <= media->high[c])) return;
-    VolumeStack entered;
-    stack_empty(&entered);
+    int64_t entered[VOLUME_WALK_HITS], taken[VOLUME_WALK_HITS];
+    int n_entered = 0, n_taken = 0, counted = 0;
+    const double D[3] = {0.0, 0.0, 1.0};
     double P[3] = {O[0], O[1], O[2]};
-    for (int step = 0; step < CAMERA_MEDIA_HITS; step++) {
-        /* a. The next surface along the ray. */
+    for (int step = 0; step < CAMERA_MEDIA_HITS && counted < VOLUME_WALK_HITS; step++) {
+        /* a. The next surface up. */
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32);
         set_lane(&packet.ray, 0, P, D, INFINITY);
@@ -258,19 +232,19 @@ static void camera_media(const MediaTables *media, const GeometryTables *geometr
                      instance_of(&packet.hit, 0), 0, STILL_TIME, &tri);   /* (a render with media moves no object) */
         Surface s;
         surface_at(P, D, (double)packet.ray.tfar[0], (double)packet.hit.u[0], (double)packet.hit.v[0], &tri, 0, &s);
-        /* b. A front face entered; a back face left if entered on the way, else a medium the ray started in. */
+        /* b. A front face marks its object entered; a back face of an object neither entered nor taken: a medium the
+         * ray started in. (An object camera rays do not see is not there.) */
         int32_t v = medium_column(media, s.material, s.object);
-        /* (an object hidden from every ray is not there: the shadow catchers' catcher-only scene, rays.absent) */
-        const int every = HIDDEN_FROM_CAMERA | HIDDEN_FROM_SHADOW | HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY
-                          | HIDDEN_FROM_TRANSMISSION | HIDDEN_FROM_VOLUME_SCATTER;
-        int64_t owner = geometry->hidden != NULL ? owner_of(geometry, (int64_t)packet.hit.geomID[0],
-                                                           (int64_t)packet.hit.primID[0], instance_of(&packet.hit, 0))
-                                                 : -1;
-        if (owner >= 0 && (geometry->hidden[owner] & every) == every) v = -1;
+        if (v >= 0 && s.object >= 0 && geometry->hidden != NULL && (geometry->hidden[s.object] & HIDDEN_FROM_CAMERA))
+            v = -1;
         if (v >= 0) {
-            if (!s.backfacing) tally_add(&entered, v, 1);
-            else if (tally_of(&entered, v) > 0) tally_add(&entered, v, -1);
-            else stack_add(stack, v, 1);                /* (each once, nearest first: Cycles' stack init) */
+            if (!s.backfacing) entered[n_entered++] = s.object;
+            else if (!object_among(entered, n_entered, s.object) && !object_among(taken, n_taken, s.object)) {
+                int before = stack->size;
+                stack_add(stack, v, 1, media->room);    /* (last, unless the stack is full or holds v) */
+                if (stack->size > before) taken[n_taken++] = s.object;
+            }
+            counted++;
         }
         /* c. On from just past it (shadows.spawn_ray: off the surface along Ng, on the side D goes to). */
         double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;

@@ -412,7 +412,7 @@ class Media:
         contiguous = lambda array, dtype: np.ascontiguousarray(np.asarray(array, dtype).reshape(-1)
                                                                if np.size(array) else np.zeros(1, dtype))
         return MediaTablesRecord(
-            count=len(self.g), sigma_t=contiguous(self.sigma_t, np.float64),
+            count=len(self.g), room=self.room, sigma_t=contiguous(self.sigma_t, np.float64),
             emission=contiguous(self.emission, np.float64), sigma_s=contiguous(self.sigma_s, np.float64),
             g=contiguous(self.g, np.float64), phase=contiguous(self.phase, np.int32),
             parameters=contiguous(self.parameters, np.float64), column=contiguous(self.column, np.int32),
@@ -449,13 +449,19 @@ class Media:
         them, 0: not in it), as Cycles' volume stack lists its (object, shader) entries: each medium once."""
         return np.zeros((n, len(self.g)), np.int16)
 
-    @staticmethod
-    def enter(inside: np.ndarray, rows: np.ndarray, column: np.ndarray) -> None:
+    @property
+    def room(self) -> int:
+        """How many media a ray's stack holds at once: MAX_MEDIA (Cycles' 32 entries less the end marker), one less
+        where the world has a Volume (its entry is the stack's first in Cycles, integrator_volume_stack_init)."""
+        return int(MAX_MEDIA) - int(self.world is not NOTHING or self.world_field is not None)
+
+    def enter(self, inside: np.ndarray, rows: np.ndarray, column: np.ndarray) -> None:
         """Rays `rows` (k,) int64 (each once) of stacks `inside` (n, V) enter the media `column` (k,) int64, in
         place: each put last in its stack's order, unless already there (Cycles' volume_stack_enter_exit: an entry
-        already on the stack is not added again)."""
+        already on the stack is not added again) or the stack already holds `room` media (Cycles: "If we exceed the
+        stack limit, ignore")."""
         rows, column = np.asarray(rows, np.int64), np.asarray(column, np.int64)
-        new = inside[rows, column] == 0
+        new = (inside[rows, column] == 0) & ((inside[rows] > 0).sum(axis=1) < self.room)
         rows, column = rows[new], column[new]
         if len(rows):
             inside[rows, column] = inside[rows].max(axis=1) + 1
@@ -526,14 +532,18 @@ class Media:
         return inside
 
 
-# The most media (columns: volume materials, and the media of one kept per object) a ray is in at once in the compiled
-# kernel's volume stack (core/volumes/media.c, sparse: a render may have any number of media); one more it enters
-# is left out, as Cycles leaves out what its stack (30 objects' media) has no room for. The Python reference's stacks
-# (Media.crossed, dense) have room for all.
-MAX_MEDIA = schema.constant("MAX_MEDIA", 16, "the most media a ray is in at once in the compiled volume stack")
+# The most media (columns: volume materials, and the media of one kept per object) a ray is in at once, as in Cycles:
+# its volume stack has MAX_VOLUME_STACK_SIZE = 32 entries (kernel/types.h), one of them the end marker and, where the
+# world has a Volume, one the world's (Scene::get_volume_stack_size keeps room for both), so a ray is in at most 31
+# objects' media, 30 with a world volume (Media.room); one more it enters is left out (volume_stack_enter_exit: "If we
+# exceed the stack limit, ignore"). Both kernels' stacks do the same (Media.enter; media.c stack_add, sparse: a render
+# may have any number of media).
+MAX_MEDIA = schema.constant("MAX_MEDIA", 31, "the most media a ray is in at once (Cycles' MAX_VOLUME_STACK_SIZE less "
+                                             "its end marker; Media.room: less the world's entry too where it has one)")
 
 MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media (core/volumes/media.py Media.tables), for media.c.", [
     ("count", I64, "V: the media (columns: per volume material, or per object: Media.column_of)"),
+    ("room", I64, "the most media a ray is in at once (Media.room: MAX_MEDIA, less 1 where the world has a volume)"),
     ("sigma_t", ptr(F64), "(V, 3) each column's extinction sigma_a + sigma_s"),
     ("emission", ptr(F64), "(V, 3) each column's emission per unit length"),
     ("sigma_s", ptr(F64), "(V, 3) each column's scattering coefficient"),
