@@ -540,3 +540,47 @@ def test_fast_gi_replace_renders_as_in_cycles(primer, tmp_path):
     full = render(scene, "PRIMER", str(tmp_path / "full.exr"))
     assert full.mean() > 1.4 * images["PRIMER"].mean()          # (measured: 0.854 against 0.514; relMSE 0.50)
     assert images["CYCLES"].mean() == pytest.approx(images["PRIMER"].mean(), rel=0.01)
+
+
+def test_fast_gi_replace_in_a_fog_renders_as_in_cycles(primer, tmp_path):
+    """Fast GI (Replace, AO Bounces 1, AO Factor 0.4, Distance 1) with the floor and the wall inside a fog box
+    (Principled Volume, density 0.25, scattering and absorbing) and Volume Bounces 2, the camera outside the box:
+    Fast GI's short rays in the fog only absorb and emit, leave the box's medium where they meet nothing within 1 m,
+    and the phase rays of the camera rays' scattering points are already Fast GI's (a scattering event counts as a
+    bounce), so those paths scatter no more. Primer 64 samples against Cycles 1024: block relMSE within 5e-5 (measured
+    9.9e-6; 1.5e-2 before 2026-11-30, Primer's image then 10 % too bright), each channel's mean within 0.5 %, no note
+    speaks of Fast GI."""
+    scene = new_cycles_file(64, 48)
+    scene.primer.settings_source = "CYCLES"
+    scene.cycles.max_bounces, scene.cycles.volume_bounces = 4, 2
+    scene.world = plain_world("Grey", (0.6, 0.6, 0.6))
+    white = diffuse_material("White", (0.8, 0.8, 0.8))
+    quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], white)
+    quad("Wall", [(-3, 1, 0), (3, 1, 0), (3, 1, 3), (-3, 1, 3)], white)
+    fog = bpy.data.materials.new("Fog")
+    fog.use_nodes = True
+    nodes = fog.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    volume = nodes.new("ShaderNodeVolumePrincipled")
+    volume.inputs["Color"].default_value = (0.7, 0.8, 0.9, 1.0)
+    volume.inputs["Density"].default_value = 0.25
+    volume.inputs["Absorption Color"].default_value = (0.5, 0.4, 0.3, 1.0)
+    fog.node_tree.links.new(volume.outputs[0], nodes["Material Output"].inputs["Volume"])
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 1.6))
+    bpy.context.object.scale = (6.4, 6.4, 3.4)
+    bpy.context.object.data.materials.append(fog)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 2.0, math.radians(5.0)
+    sun.rotation_euler = (math.radians(50.0), 0.0, math.radians(-30.0))
+    scene.collection.objects.link(sun)
+    add_camera(scene, (2.5, -5.5, 2.2), (math.radians(72), 0.0, math.radians(25)))
+    scene.cycles.use_fast_gi, scene.cycles.fast_gi_method, scene.cycles.ao_bounces_render = True, "REPLACE", 1
+    scene.world.light_settings.ao_factor, scene.world.light_settings.distance = 0.4, 1.0
+    images = {}
+    for engine, samples in (("PRIMER", 64), ("CYCLES", 1024)):
+        scene.cycles.samples = samples
+        images[engine] = render(scene, engine, str(tmp_path / f"{engine}.exr"))
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "Fast GI" in w]
+    assert relative_mse_of_blocks(images["PRIMER"], images["CYCLES"], 4) < 5e-5
+    np.testing.assert_allclose(images["PRIMER"].reshape(-1, 3).mean(axis=0),
+                               images["CYCLES"].reshape(-1, 3).mean(axis=0), rtol=5e-3)

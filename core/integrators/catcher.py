@@ -171,7 +171,8 @@ def media_notes(ctx: Context, geometry) -> list:
     if media.scatters and chains(ctx):
         notes.append("shadow catchers: with Volume Bounces above 0, the light scattering volumes in front of a "
                      "catcher send to the camera goes to the Shadow Catcher pass, not the matte (Cycles writes it "
-                     "to the matte; with Volume Bounces 0 Primer does too); their transmittance is kept")
+                     "to the matte; with Volume Bounces 0, or Fast GI's AO Bounces 1, whose paths scatter once in "
+                     "front of it, Primer does too); their transmittance is kept")
     return notes
 
 
@@ -379,6 +380,7 @@ def front_media(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, pixel
     from . import volume as volume_
     from .path import through_transparent
     from .rays import camera_media
+    from .vertex import fast_gi_scatter
     from .. import volumes
     k = len(O)
     inside = camera_media(ctx, O)
@@ -387,7 +389,7 @@ def front_media(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, pixel
     groups = lightgroups.tally(ctx, k)
     if media.scatters and not chains(ctx):
         scattered, _ = volume_.in_scattering(ctx, O, D, t, inside, np.ones((k, 3)), pixel, sample, 0, 0,
-                                             through_transparent, None, groups)
+                                             through_transparent, None, groups, fast_gi_scatter(ctx.settings, k))
     return FrontMedia(stretch, volumes.emitted(stretch, t), scattered, stretch.transmittance(t), groups, inside)
 
 
@@ -396,8 +398,10 @@ def chains(ctx: Context) -> bool:
     `onward`, chunk.c's `chains`)."""
     from . import for_render
     integrator = for_render(ctx)
+    from . import volume as volume_
+    # (not where a camera ray's scattering event sends Fast GI's short phase ray: volume.volume_bounces_left)
     return (ctx.settings.integrator == "path" and not getattr(integrator, "direct_only", False)
-            and ctx.settings.volume_bounces > 0 and ctx.settings.max_bounces >= 1)
+            and volume_.volume_bounces_left(ctx, 0, 0))
 
 
 def images(sums: np.ndarray, combined: np.ndarray, count: np.ndarray, transparent: bool,

@@ -228,7 +228,9 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         double one[3] = {1.0, 1.0, 1.0}, through[BLOCK][3];
         ds.everywhere = 1;
         /* (with Volume Bounces a camera ray's path goes on from where it scatters: volume.c volume_chain) */
-        int chains = (int)params->integrator == INTEGRATOR_PATH && limits.volume_bounces > 0 && limits.max_bounces >= 1;
+        /* (not where its scattering event's phase ray is Fast GI's: volume.volume_bounces_left) */
+        int chains = (int)params->integrator == INTEGRATOR_PATH && limits.volume_bounces > 0 && limits.max_bounces >= 1
+                     && !fast_gi_scatter(&ds, 0, 0, 0);
         work->n_arrivals = 0;
         double *lane_groups = ds.groups > 0 ? work->lane_groups : NULL;
         if (lane_groups != NULL)
@@ -246,7 +248,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                 int arrived = 0;
                 double later[3] = {0.0, 0.0, 0.0};
                 scattering_rays += volume_chain(&ds, &limits, O, D, H->t[lane], H->lane_inside + lane, one,
-                                                (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0, 0,
+                                                (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0, 0, 0, 0,
                                                 H->lane_scattered[lane], later, through[lane], a, &arrived,
                                                 lane_groups != NULL ? lane_groups + 3 * lane * ds.groups : NULL);
                 if (ds.light_passes) {
@@ -273,7 +275,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
             scattering_rays += in_scattering(&ds, (int)params->integrator == INTEGRATOR_PATH ? &limits : &clear_only,
                                              O, D, H->t[lane], H->lane_inside + lane, one, (int64_t)b->pixel[lane],
                                              (int64_t)b->index[lane], 0, 0, H->lane_scattered[lane],
-                                             lane_groups != NULL ? found_groups : NULL);
+                                             lane_groups != NULL ? found_groups : NULL, fast_gi_scatter(&ds, 0, 0, 0));
             if (lane_groups != NULL)            /* (its light groups, by the source of each light scattered) */
                 add_groups(lane_groups + 3 * lane * ds.groups, found_groups, ds.groups, one);
             if (ds.light_passes) add_scattered(work->lane_light[lane], H->lane_scattered[lane], 0, volume_only, 1);
@@ -638,7 +640,8 @@ static void render_chunk(const ChunkArgs *a)
     const ChunkParams *alone = out->catcher != NULL ? (const ChunkParams *)params->catcher : NULL;
     int catching = alone != NULL;
     /* (with Volume Bounces a camera ray's path goes on from where it scatters: integrate's chains) */
-    int chains = (int)params->integrator == INTEGRATOR_PATH && params->volume_bounces > 0 && params->max_bounces >= 1;
+    int chains = (int)params->integrator == INTEGRATOR_PATH && params->volume_bounces > 0 && params->max_bounces >= 1
+                 && !fast_gi_scatter_past((int)params->ao_bounces, 0, 0, 0);
     uint8_t caught[BLOCK];
     double through[BLOCK][3], front[BLOCK][3];      /* (what clear surfaces in front of a catcher let through; lamps) */
     double front_emitted[BLOCK][3], front_scattered[BLOCK][3];   /* (what the media in front of it emit, scatter) */

@@ -648,6 +648,20 @@ INLINE int fast_gi_ray(const DirectSettings *ds, const LightPath *path)
     return path->bounce - path->transmission - (path->glossy > 0) + 1 > ds->ao_bounces;
 }
 
+/* vertex.fast_gi_scatter: whether the phase ray of a scattering point on a ray whose path has made `bounce` real
+ * bounces (`transmission`, `glossy` of them) is Fast GI's short ray (AO Bounces ao_bounces, 0: off), the scattering
+ * event one more bounce. */
+INLINE int fast_gi_scatter_past(int ao_bounces, int bounce, int transmission, int glossy)
+{
+    if (ao_bounces == 0) return 0;
+    return (bounce + 1) - transmission - (glossy > 0) + 1 > ao_bounces;
+}
+
+INLINE int fast_gi_scatter(const DirectSettings *ds, int bounce, int transmission, int glossy)
+{
+    return fast_gi_scatter_past(ds->ao_bounces, bounce, transmission, glossy);
+}
+
 /* path.py: a camera chain's ray from hit h straight on through a transparent surface (passes.c). */
 INLINE void passes_straight_on(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h,
                                const double *weight, const double *O, const double *D, int hit, double t,
@@ -1326,6 +1340,8 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                     walk_media(ds->media, ds->geometry, ds->intersect, ds->scene, sf->I, walk.P,
                                owner_of(ds->geometry, H->geometry[owner[k]], H->prim[owner[k]], H->instance[owner[k]]),
                                &inside);
+                /* (Fast GI's short ray that meets nothing leaves every mesh's medium: Cycles' volume_stack_clean) */
+                if (ao[k] && !hit) stack_empty(&inside);
                 medium_along(ds->media, &inside, sigma, emission);
                 March march;                    /* (through a heterogeneous medium: its march, field.c) */
                 if (!walked)                    /* (the walk's ray is no ray through the medium outside) */

@@ -130,7 +130,10 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
         double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0};
-        if (ds->media != NULL) medium_along(ds->media, &inside, sigma, emission);
+        if (ds->media != NULL) {                    /* (a short ray that meets nothing: the world's medium alone) */
+            if (r->ao && !hit) stack_empty(&inside);
+            medium_along(ds->media, &inside, sigma, emission);
+        }
         FindingRay finding = {O, D, hit, hit ? t : t_max, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O,
                               r->mis_N, (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission,
                               NULL, ds->media != NULL ? &inside : NULL, r->time, r->ao};

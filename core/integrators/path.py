@@ -31,7 +31,9 @@ each contribution.
 Cycles' Fast GI Approximation (Replace; RenderSettings ao_bounces, ao_factor, ao_distance) shortens the rest: past
 ao_bounces bounces (vertex.fast_gi_ray) a path's ray looks ao_distance far, the world it escapes to counts ao_factor
 times, and the surface it meets ends the path (its emission gathered, its transparent surfaces looked through, as past
-the bounce limits): ambient occlusion in place of the light of later bounces.
+the bounce limits): ambient occlusion in place of the light of later bounces. In media, as Cycles: the media along a
+short ray only absorb and emit, one that meets nothing leaves the meshes' media (the world's kept), and a scattering
+event counts as a bounce, so the phase rays of scattering points past AO Bounces are short too (volume.py).
 
 Object > Visibility as Cycles reads it: every ray has a kind (camera; after a bounce diffuse, glossy or
 transmission, rays.ray_kind; straight through a Transparent closure the kind it had) and passes the objects
@@ -72,7 +74,7 @@ from . import subsurface as subsurface_
 from . import volume as volume_
 from .rays import camera_back, camera_cones, camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
-from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex, short_ray_lengths
+from .vertex import VERTEX_DIMENSIONS, PathState, fast_gi_scatter, gather_light, shade_vertex, short_ray_lengths
 from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_VOLUME_SCATTER, HOLDOUT
 
 # The most volume-only boundaries a path or a shadow ray crosses (Cycles' VOLUME_BOUNDS_MAX: a guard against a ray
@@ -267,7 +269,10 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
                  else short_ray_lengths(ctx, surface.prim[go], short))
         hits = nearest_seen(ctx, O, D, t_max, ray.seen_as[rows][alive], times)
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
-        stretch = None if media is None else media.along(inside[alive], O, D)
+        stretch = None
+        if media is not None:                    # (a short ray that meets nothing keeps the world's medium alone)
+            stretch = media.along(inside[alive] if short is None
+                                  else np.where((short & ~hits.hit)[:, None], 0, inside[alive]), O, D)
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
                                         seen_as=ray.seen_as[rows][alive], stretch=stretch,
@@ -373,7 +378,8 @@ class PathTracing(Integrator):
             # The light the media scatter towards the camera along its rays (core/integrators/volume.py).
             scattered, shadow_rays = volume_.in_scattering(ctx, O, D, np.where(found.hit, found.t, t_max), inside,
                                                            np.ones((len(O), 3)), pixel, sample, 0, 0,
-                                                           through_transparent, recorder, groups)
+                                                           through_transparent, recorder, groups,
+                                                           fast_gi_scatter(s, len(O)))
             L_out += scattered
             if light is not None:
                 light[:, lightpasses.VOLUME] += scattered
@@ -582,10 +588,13 @@ class PathTracing(Integrator):
             if scatters:
                 # The light the media scatter towards this bounce's rays, where the path may still bounce on them.
                 # (not along a walk's exit ray: no ray through the media, the exit is shaded at once, as in Cycles)
-                live = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived & ~walked)
+                # (nor along Fast GI's short rays, whose media only absorb and emit: Cycles ends such a path after
+                #  the volume, PATH_RAY_TERMINATE_AFTER_VOLUME, and scatters nowhere on a path it terminates)
+                live = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived & ~walked & ~short)
                 if onward and len(live):
                     # Paths with Volume Bounces left scatter or go on (volume.multiple_scattering).
-                    multi = live[volume_.volume_bounces_left(ctx, volume[ray.rows[live]], bounces[live])]
+                    multi = live[volume_.volume_bounces_left(ctx, volume[ray.rows[live]], bounces[live], tr[live],
+                                                             g[live])]
                     live = np.setdiff1d(live, multi)
                     if len(multi):
                         carried = throughput[ray.rows[multi]] * ray.weight[multi] / q[multi, None]
@@ -620,7 +629,8 @@ class PathTracing(Integrator):
                     scattered, count = volume_.in_scattering(
                         ctx, ray.O[live], ray.D[live], np.where(ray.hits.hit[live], ray.hits.t[live], np.inf),
                         ray.inside[live], carried, pixel[path_rows], sample[path_rows],
-                        (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent, recorder, stretch_groups)
+                        (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent, recorder, stretch_groups,
+                        fast_gi_scatter(s, len(live), bounces[live], tr[live], g[live]))
                     L_out[path_rows] += carried * scattered
                     if groups is not None:
                         groups.add_rows(path_rows, stretch_groups, carried)

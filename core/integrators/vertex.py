@@ -394,6 +394,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     if inside is not None:
         # The ray's media (the hit's own where it went through the surface), and what they let through to its hit.
         ray_inside = media_beyond(ctx, surface, go, inside[go], goes_through(bs.kind[go], transmit))
+        # (Fast GI's short ray that meets nothing within its reach leaves every mesh's medium, the world's alone kept:
+        #  Cycles cleans the volume stack of a ray that hit nothing, volume_stack_clean, as if it had left the meshes)
+        ray_inside[ao & ~hits.hit] = 0
         stretch = ctx.extra["media"].along(ray_inside, O, D)
         attenuation = stretch.transmittance(t_hit)
         if len(walks):
@@ -688,6 +691,16 @@ def fast_gi_ray(settings, paths) -> np.ndarray:
         return np.zeros(len(paths.bounce), bool)
     depth = np.asarray(paths.bounce) - np.asarray(paths.transmission) - (np.asarray(paths.glossy) > 0) + 1
     return depth > bounces
+
+
+def fast_gi_scatter(settings, n: int, bounce=0, transmission=0, glossy=0) -> np.ndarray:
+    """Which of n stretches' scattering points (k,) bool send Fast GI's short rays along their phase direction: those
+    whose paths, `bounce`, `transmission`, `glossy` (scalars or (n,)) the counters of the ray the stretch is on, are
+    past AO Bounces once the scattering event counts as one more bounce (Cycles' path_state_next for a volume scatter,
+    then path_state_ao_bounce: fast_gi_ray)."""
+    paths = graph_.light_paths(n, flags=graph_.PATH["volume_scatter"], bounce=np.asarray(bounce) + 1,
+                               transmission=transmission, glossy=glossy)
+    return fast_gi_ray(settings, paths)
 
 
 def short_ray_lengths(ctx: Context, prim: np.ndarray, ao: np.ndarray) -> np.ndarray:

@@ -69,11 +69,13 @@ typedef struct {
  * -1; onward: where the path goes on along the phase ray (Volume Bounces), that ray (the light behind the
  * transparent surfaces it meets is then the path's to find), or NULL. groups: (ds->groups, 3) L by the group of its
  * source (zeroed here; lightgroups.py: a light sample's light's, the phase ray's finds', the media's emission by
- * emission_group), or NULL. Returns the shadow rays traced. */
+ * emission_group), or NULL. ao: 1 where the phase ray is Fast GI's short ray (fast_gi_scatter; not with onward): it
+ * looks ds->ao_distance far, its media only absorb and emit (all but the world's left where it meets nothing), and
+ * the world it escapes to counts ds->ao_factor times. Returns the shadow rays traced. */
 static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limits, const double *P, const double *wo,
                                const Phase *phase, const VolumeStack *inside, int64_t pixel, int64_t sample,
                                int64_t dimension, int bounce, const FreeFlight *flight, int64_t only, double *L,
-                               PhaseRay *onward, double *groups)
+                               PhaseRay *onward, double *groups, int ao)
 {
     int64_t rays = 0;
     double zero[3] = {0.0, 0.0, 0.0};
@@ -159,14 +161,18 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     double pdf = phase_sample(phase, wo, u, wi);
     RayHitPacket packet;
     int valid[PACKET] ALIGNED(32);
-    set_lane(&packet.ray, 0, P, wi, INFINITY);
+    double reach = ao ? ds->ao_distance : INFINITY;      /* (Fast GI's short ray: AO Distance far) */
+    set_lane(&packet.ray, 0, P, wi, reach);
     close_packet(&packet.ray, valid, 1);
     clear_hits(&packet);
     ds->intersect(valid, ds->scene, &packet, NULL);
     if (packet.hit.geomID[0] != INVALID_ID && ds->geometry->hidden != NULL)     /* (objects hidden from it) */
-        see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, P, wi, INFINITY,
+        see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, P, wi, reach,
                         HIDDEN_FROM_VOLUME_SCATTER, STILL_TIME);
     int hit = packet.hit.geomID[0] != INVALID_ID;
+    VolumeStack along = *inside;                         /* (a short ray that meets nothing: the world's alone) */
+    if (ao && !hit) stack_empty(&along);
+    inside = &along;
     double t = hit ? (double)packet.ray.tfar[0] : INFINITY, sigma_t[3], emission[3];
     if (onward != NULL) {
         for (int c = 0; c < 3; c++) onward->wi[c] = wi[c];
@@ -191,10 +197,10 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     }
     double light_L[3] = {0.0, 0.0, 0.0};
     LightPath scatter = {PATH_VOLUME_SCATTER, bounce + 1, 0, 0, 0, 0, 0, 0.0, 0.0};   /* (volume.scatter_paths) */
-    FindingRay finding = {P, wi, hit, t, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
+    FindingRay finding = {P, wi, hit, hit ? t : reach, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
                           instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, HIDDEN_FROM_VOLUME_SCATTER, &scatter, 0,
                           sigma_t, emission, NULL,
-                          inside, STILL_TIME, 0};         /* (a render with media moves no object) */
+                          inside, STILL_TIME, ao};        /* (a render with media moves no object) */
     gather_light(ds, &finding, light_L, groups);
     for (int c = 0; c < 3; c++) L[c] += light_L[c];
     if (!hit || ds->transmitter == NULL || onward != NULL) return rays;
@@ -214,7 +220,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     r.inside = *inside;
     r.path = scatter;
     r.receiver = 0;                                      /* (a medium receives as the default set: Light Linking) */
-    r.ao = 0;
+    r.ao = ao;
     stretch_transmittance(marched, sigma_t, t, r.attenuation);
     for (int c = 0; c < 3; c++) { r.O[c] = P[c]; r.D[c] = wi[c]; r.weight[c] = 1.0; r.mis_O[c] = P[c]; r.mis_N[c] = 0.0; }
     double behind[3] = {0.0, 0.0, 0.0};
@@ -226,10 +232,11 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
 /* volume.in_scattering for one ray O, D (3) over [0, t) (inf: to the world) in the media `inside`, carrying
  * `throughput` (3, not included): the light its media scatter towards O, into L (3, zeroed here). dimension: the
  * vertex's shift of the sampling dimensions; bounce: the real bounces the path made (a light's Max Bounces);
- * groups: (ds->groups, 3) L by group (zeroed here), or NULL. Returns the shadow rays traced. */
+ * groups: (ds->groups, 3) L by group (zeroed here), or NULL; ao: 1 where its scattering points' phase rays are Fast
+ * GI's (fast_gi_scatter). Returns the shadow rays traced. */
 static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
                              double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
-                             int64_t sample, int64_t dimension, int bounce, double *L, double *groups);
+                             int64_t sample, int64_t dimension, int bounce, double *L, double *groups, int ao);
 
 /* volume.equiangular_light: each lamp with a position adds the light scattered at its equi-angular point on O, D
  * over [0, t), lit by that lamp alone and weighed by the balance heuristic against free flight (odds), into L (3):
@@ -270,7 +277,7 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
             beer_lambert(sigma_t, s_e, kept);
         }
         rays += scattered_light(ds, limits, X, wo, &here, inside, pixel, sample, dimension, bounce, NULL, l, lit,
-                                NULL, groups != NULL ? lit_groups : NULL);
+                                NULL, groups != NULL ? lit_groups : NULL, 0);
         double scale[3];
         for (int c = 0; c < 3; c++) { scale[c] = (kept[c] * at_s[c]) * (w / pdf_e); L[c] += scale[c] * lit[c]; }
         add_groups(groups, lit_groups, ds->groups, scale);
@@ -282,11 +289,11 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
  * field.c): free flight inverting the optical depth of a channel picked by throughput x the ray's albedo (its optical
  * depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's equi-angular point weighed against it by the
  * balance heuristic; into L (3, zeroed by the caller) and by group into groups ((ds->groups, 3), zeroed by the
- * caller, or NULL). Returns the shadow rays traced. */
+ * caller, or NULL); ao: in_scattering's. Returns the shadow rays traced. */
 static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *limits, const March *m, const double *O,
                                   const double *D, double t, const VolumeStack *inside, const double *throughput,
                                   int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L,
-                                  double *groups)
+                                  double *groups, int ao)
 {
     double point_groups[3 * MAX_LIGHT_GROUPS];
     double tau_t[3], tau_s[3], odds[3], u[2], s = 0.0, wo[3] = {-D[0], -D[1], -D[2]};
@@ -305,7 +312,7 @@ static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *li
         phase_at(ds->media, inside, P, g, &phase);       /* (a heterogeneous medium: its phase function there) */
         FreeFlight flight = {O, D, t, s, pdf};
         rays += scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
-                                scattered, NULL, groups != NULL ? point_groups : NULL);
+                                scattered, NULL, groups != NULL ? point_groups : NULL, ao);
         double scale[3];
         for (int c = 0; c < 3; c++) { scale[c] = kept[c] * sigma_s[c] / pdf; L[c] = scale[c] * scattered[c]; }
         add_groups(groups, point_groups, ds->groups, scale);
@@ -318,7 +325,7 @@ static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *li
 
 static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
                              double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
-                             int64_t sample, int64_t dimension, int bounce, double *L, double *groups)
+                             int64_t sample, int64_t dimension, int bounce, double *L, double *groups, int ao)
 {
     const MediaTables *media = ds->media;
     double sigma_t[3], emission[3], sigma_s[3], g;
@@ -333,7 +340,7 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
         March march;
         march_of(media, inside, O, D, t, sigma_t, sigma_s, emission, g, &march);
         return marched_scattering(ds, limits, &march, O, D, t, inside, throughput, pixel, sample, dimension, bounce,
-                                  L, groups);
+                                  L, groups, ao);
     }
     if (!(sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0)) return 0;
     /* 1. Where the ray scatters (free flight), and its weight T(s) sigma_s / pdf(s). */
@@ -353,7 +360,7 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
     FreeFlight flight = {O, D, t, s, pdf};
     double scattered[3], point_groups[3 * MAX_LIGHT_GROUPS];
     int64_t rays = scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
-                                   scattered, NULL, groups != NULL ? point_groups : NULL);
+                                   scattered, NULL, groups != NULL ? point_groups : NULL, ao);
     for (int c = 0; c < 3; c++) L[c] = weight[c] * scattered[c];
     add_groups(groups, point_groups, ds->groups, weight);
     /* 3. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
@@ -431,7 +438,7 @@ static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limit
     FreeFlight flight = {O, D, t, s, pdf};
     double point_groups[3 * MAX_LIGHT_GROUPS];
     rays += scattered_light(ds, limits, next->P, wo, &here, inside, pixel, sample, dimension, bounce, &flight, -1,
-                            light, &next->ray, groups != NULL ? point_groups : NULL);
+                            light, &next->ray, groups != NULL ? point_groups : NULL, 0);
     for (int c = 0; c < 3; c++) L[c] += next->weight[c] * light[c];
     add_groups(groups, point_groups, ds->groups, next->weight);
     next->scattered = 1;
@@ -448,12 +455,14 @@ static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limit
  * dimension: the stretch's shift of sampling dimensions, each later event CHAIN_SHIFT more. later: where the light
  * found at the events after the stretch's own goes instead of L (3, added to; the light passes'
  * multiple_scattering events), or NULL: L. groups: (ds->groups, 3) all the light found (L's and later's) by group,
- * added to, or NULL. Returns the shadow rays traced. */
+ * added to, or NULL. transmission, glossy: the path's bounces of those kinds (Fast GI's count: where a stretch's
+ * event would send Fast GI's phase ray, the path ends there, volume.volume_bounces_left). Returns the shadow rays
+ * traced. */
 NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits *limits, const double *O,
                                      const double *D, double t, const VolumeStack *inside, const double *throughput,
                                      int64_t pixel, int64_t sample, int64_t dimension, int bounce, int volume,
-                                     double *L, double *later, double *through, Arrival *arrival, int *arrived,
-                                     double *groups)
+                                     int transmission, int glossy, double *L, double *later, double *through,
+                                     Arrival *arrival, int *arrived, double *groups)
 {
     double *after_L = later != NULL ? later : L;
     double light[3], carried[3] = {throughput[0], throughput[1], throughput[2]};
@@ -472,11 +481,12 @@ NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits 
         double reach = onward.ray.hit ? onward.ray.t : INFINITY, carry[3];
         int64_t dim = dimension + step * CHAIN_SHIFT;
         after.scattered = 0;
-        if (!(volume < limits->volume_bounces && bounce + 1 <= limits->max_bounces)) {
+        int short_phase = fast_gi_scatter(ds, bounce, transmission, glossy);
+        if (!(volume < limits->volume_bounces && bounce + 1 <= limits->max_bounces) || short_phase) {
             /* a. The path ends at its next scattering event: its single scattering, and on to the hit with T. */
             double found[3], sigma_t[3], emission[3], kept[3];
             rays += in_scattering(ds, limits, P, wi, reach, inside, carried, pixel, sample, dim, bounce, found,
-                                  found_groups);
+                                  found_groups, short_phase);
             for (int c = 0; c < 3; c++) after_L[c] += carried[c] * found[c];
             add_groups(groups, found_groups, ds->groups, carried);
             medium_along(ds->media, inside, sigma_t, emission);
@@ -544,6 +554,8 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
         if (ds->features && H->looking[h])     /* (the media along it, where its path still looks: features.in_media) */
             features_along(work->features[H->lane[h]], work->reach + H->lane[h], H->feature_tp + 3 * h, carried,
                            ds->media, &r->inside, r->O, r->D, r->hit ? r->t : INFINITY, ds->back);
+        /* (Fast GI's short ray: its media only absorb and emit, Cycles' PATH_RAY_TERMINATE_AFTER_VOLUME; path.py) */
+        if (r->ao) continue;
         /* c. The light its media scatter towards it; for the light passes, by the stretch's shares (lightpasses.c
          *    stretch_shares: a path's shares are those of its first real bounce's ray, as next_vertices keeps them). */
         double L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3] = {{0.0}};    /* (read only with the light passes) */
@@ -551,7 +563,8 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
             stretch_shares(bounces, H->bounce[h] == 0 && !see_through ? &r->shares[0][0] : &H->shares[h][0][0],
                            shares);
         int64_t dimension = (int64_t)(vertex + 1) * VERTEX_DIMENSIONS;
-        if (H->volume[h] < limits->volume_bounces && bounces + 1 <= limits->max_bounces) {
+        if (H->volume[h] < limits->volume_bounces && bounces + 1 <= limits->max_bounces
+            && !fast_gi_scatter(ds, bounces, r->path.transmission, r->path.glossy)) {
             double through[3];
             int arrived = 0;
             Arrival *a = work->arrivals + work->n_arrivals;
@@ -560,8 +573,9 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
             if (groups != NULL)                      /* (volume_chain adds to them) */
                 for (int64_t i = 0; i < 3 * ds->groups; i++) found_groups[i] = 0.0;
             shadow_rays += volume_chain(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
-                                        H->pixel[h], H->sample[h], dimension, bounces, H->volume[h], L, later,
-                                        through, a, &arrived, groups != NULL ? found_groups : NULL);
+                                        H->pixel[h], H->sample[h], dimension, bounces, H->volume[h],
+                                        r->path.transmission, r->path.glossy, L, later, through, a, &arrived,
+                                        groups != NULL ? found_groups : NULL);
             if (groups != NULL)                      /* (its light groups: the chain's, throughput included) */
                 add_groups(groups + 3 * ds->groups * H->lane[h], found_groups, ds->groups, one);
             for (int c = 0; c < 3; c++) work->extra[H->lane[h]][c] += L[c] + later[c];
@@ -594,7 +608,8 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
         }
         shadow_rays += in_scattering(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
                                      H->pixel[h], H->sample[h], dimension, bounces, L,
-                                     groups != NULL ? found_groups : NULL);
+                                     groups != NULL ? found_groups : NULL,
+                                     fast_gi_scatter(ds, bounces, r->path.transmission, r->path.glossy));
         for (int c = 0; c < 3; c++) {
             L[c] *= carried[c];
             work->extra[H->lane[h]][c] += L[c];

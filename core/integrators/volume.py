@@ -46,8 +46,8 @@ from ..visibility import HIDDEN_FROM_VOLUME_SCATTER
 from . import lightgroups, shadows
 from .base import Context, check_stop
 from .rays import nearest_seen
-from .vertex import (BsdfRay, gather_light, lamp_paths, light_count, light_numbers, mis_count, power_heuristic,
-                     shadow_blockers, textured_samples, world_samples_seen)
+from .vertex import (BsdfRay, fast_gi_scatter, gather_light, lamp_paths, light_count, light_numbers, mis_count,
+                     power_heuristic, shadow_blockers, textured_samples, world_samples_seen)
 
 # The sampling dimensions of a stretch's scattering point (distance, channel) and of its phase direction, and the
 # shift of its light samples' dimensions from the vertex's own (core/sampling; a path's vertex k adds k x
@@ -119,7 +119,7 @@ def equiangular(O: np.ndarray, D: np.ndarray, t: np.ndarray, X: np.ndarray, u=No
 
 def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                   throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce,
-                  behind, recorder=None, groups=None) -> tuple:
+                  behind, recorder=None, groups=None, ao=None) -> tuple:
     """The light (k, 3) float64 that the media scatter towards the starts of rays O, D (k, 3) over distances t (k,)
     (inf: to the world), seen through each path's `throughput` (k, 3) (not included), and the shadow rays traced.
 
@@ -127,7 +127,8 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     numbers; dimension: the vertex's shift of the sampling dimensions; bounce: (k,) or int the real bounces the paths
     made before the stretch (a light's Max Bounces); behind: path.through_transparent, for the phase rays;
     recorder: a Recorder told each scattering point (Recorder.scatter), or None; groups: a lightgroups.GroupLight of
-    the k rays that receives L by the group of each light scattered (scattered_light), or None."""
+    the k rays that receives L by the group of each light scattered (scattered_light), or None; ao: (k,) bool the rays
+    whose scattering points' phase rays are Fast GI's short rays (fast_gi_scatter), or None: none."""
     media = ctx.extra["media"]
     stretch = media.along(inside, O, D)
     L = np.zeros((len(O), 3))
@@ -142,7 +143,8 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
         L[marched], shadow_rays = marched_scattering(ctx, stretch.rows(marched), O[marched], D[marched],
                                                      np.asarray(t, np.float64)[marched], inside[marched],
                                                      throughput[marched], pixel[marched], sample[marched], dimension,
-                                                     bounces[marched], behind, recorder, part_groups)
+                                                     bounces[marched], behind, recorder, part_groups,
+                                                     None if ao is None else ao[marched])
         if groups is not None:
             groups.add_rows(marched, part_groups)
     if len(rows) == 0:
@@ -167,7 +169,8 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     share = {index: pdf / (pdf + equiangular(o, d, length, X, s=s)[1]) for index, X in lamps.items()}
     point_groups = part_tally(groups, len(rows))
     scattered, count = scattered_light(ctx, P, -d, part.phases(), inside[rows], pixel[rows], sample[rows],
-                                       dimension, bounces, behind, share, groups=point_groups)
+                                       dimension, bounces, behind, share, groups=point_groups,
+                                       ao=None if ao is None else ao[rows])
     L[rows] = weight * scattered
     if groups is not None:
         groups.add_rows(rows, point_groups, weight)
@@ -200,13 +203,13 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
 
 def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                        throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
-                       bounce: np.ndarray, behind, recorder=None, groups=None) -> tuple:
+                       bounce: np.ndarray, behind, recorder=None, groups=None, ao=None) -> tuple:
     """in_scattering for k rays in a heterogeneous medium (stretch: their volumes.Stretch): the same estimate on the
     pieces of their march (core/volumes/field.py): free flight inverting the optical depth of a channel picked by
     throughput x the rays' albedo (their optical depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's
     equi-angular point weighed against it by the balance heuristic (recorder: told the free-flight points, or None;
-    groups: a lightgroups.GroupLight of the k rays that receives L by group, or None). Returns (L (k, 3), shadow
-    rays)."""
+    groups: a lightgroups.GroupLight of the k rays that receives L by group, or None; ao: (k,) bool Fast GI's phase
+    rays, in_scattering's, or None). Returns (L (k, 3), shadow rays)."""
     k = len(O)
     L = np.zeros((k, 3))
     march = stretch.march(t, np.arange(k))
@@ -229,7 +232,7 @@ def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: n
         point_groups = part_tally(groups, len(ok))
         scattered, shadow_rays = scattered_light(ctx, X, -D[ok], stretch.phases_at(ok, X, g[ok]), inside[ok],
                                                  pixel[ok], sample[ok], dimension, bounce[ok], behind, share,
-                                                 groups=point_groups)
+                                                 groups=point_groups, ao=None if ao is None else ao[ok])
         L[ok] = weight * scattered
         if groups is not None:
             groups.add_rows(ok, point_groups, weight)
@@ -304,7 +307,7 @@ def scatter_paths(m: int, bounce) -> "graph_.LightPaths":
 
 def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: np.ndarray,
                     pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray, behind,
-                    share: dict = None, only: int = None, phase_out: dict = None, groups=None) -> tuple:
+                    share: dict = None, only: int = None, phase_out: dict = None, groups=None, ao=None) -> tuple:
     """The light (m, 3) float64 that scattering points P (m, 3) with phase functions `phase` (phase.Phases, m rows;
     or Henyey-Greenstein anisotropies (m,)) send
     towards wo (m, 3) per unit sigma_s (the integral of p L over the sphere), and the shadow rays traced: light
@@ -314,7 +317,10 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
     phase_out: a dict that receives the phase ray ("wi" (m, 3), "pdf" (m,), "hits") where the path goes on along it
     (Volume Bounces left: the light behind the transparent surfaces it meets is then the path's to find), or None.
     groups: a lightgroups.GroupLight of the m points that receives L by the group of its source (a light sample:
-    its light's, the phase ray's finds: what they find, the media's emission: lightgroups.add_emitted), or None."""
+    its light's, the phase ray's finds: what they find, the media's emission: lightgroups.add_emitted), or None.
+    ao: (m,) bool the points whose phase ray is Fast GI's short ray (fast_gi_scatter; not with phase_out), or None:
+    it looks the render's AO Distance far, its media only absorb and emit, leaving every mesh's where it meets
+    nothing, and the world it escapes to counts AO Factor times (path.py's short rays)."""
     s = ctx.settings
     m = len(P)
     phase = phase if isinstance(phase, Phases) else Phases.henyey_greenstein(phase)
@@ -384,26 +390,33 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=PHASE_DIMENSION + dimension)
         ps = phase.sample(wo, u)
         kind = np.full(m, HIDDEN_FROM_VOLUME_SCATTER, np.int64)   # (it passes objects hidden from Volume Scatter)
-        hits = nearest_seen(ctx, P, ps.wi, np.full(m, np.inf), kind)
-        stretch = ctx.extra["media"].along(inside, P, ps.wi)
+        # (Fast GI's: AO Distance far, Cycles' intersect_closest past path_state_ao_bounce, a scattering event a bounce)
+        short = np.zeros(m, bool) if ao is None else np.asarray(ao, bool)
+        t_max = np.where(short, s.ao_distance, np.inf)
+        hits = nearest_seen(ctx, P, ps.wi, t_max, kind)
+        # (one that meets nothing leaves every mesh's medium: Cycles' volume_stack_clean)
+        phase_inside = np.where((short & ~hits.hit)[:, None], 0, inside) if short.any() else inside
+        stretch = ctx.extra["media"].along(phase_inside, P, ps.wi)
         gather = bsdf_rays and s.light_sampling != "light"
         if phase_out is not None:                        # (the path goes on along this ray: multiple scattering)
             phase_out.update(wi=ps.wi, pdf=ps.pdf, hits=hits)
         if gather:
             L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch,
-                              paths=scatter_paths(m, bounce), receiver=nowhere, groups=groups)
+                              paths=scatter_paths(m, bounce), receiver=nowhere, groups=groups,
+                              t_max=t_max if ao is not None else None, ao=ao)
         if gather and phase_out is None:
             # Straight on through the transparent surfaces it meets, to the light behind them.
             T = stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
             ray = BsdfRay(np.arange(m), P, ps.wi, hits, np.ones((m, 3)), np.full(m, -1), np.zeros(m, bool),
-                          np.zeros(m, bool), ps.pdf, kind, P, unknown, inside=inside, attenuation=T,
+                          np.zeros(m, bool), ps.pdf, kind, P, unknown, inside=phase_inside, attenuation=T,
                           path=scatter_paths(m, bounce), receiver=nowhere)
             rows = np.flatnonzero(hits.hit)
             if len(rows):
                 rows = rows[ctx.materials.may_pass[ctx.geometry.triangle_data(hits.prim[rows], smooth=False).material]]
             if len(rows):
                 behind_groups = part_tally(groups, len(rows))
-                L[rows] += behind(ctx, ray, rows, T[rows], np.zeros(len(rows), np.int64), np.inf, behind_groups)
+                L[rows] += behind(ctx, ray, rows, T[rows], np.zeros(len(rows), np.int64), np.inf, behind_groups,
+                                  None if ao is None else short[rows])
                 if groups is not None:
                     groups.add_rows(rows, behind_groups)
         elif not gather:
@@ -420,12 +433,19 @@ CHAIN_SHIFT = schema.constant("CHAIN_SHIFT", 1 << 17,
                               "a chain's k-th scattering event: k x this past its stretch's dimensions")
 
 
-def volume_bounces_left(ctx: Context, volume: np.ndarray, bounce: np.ndarray) -> np.ndarray:
-    """Which paths (k,) bool, having scattered `volume` (k,) times in media and bounced `bounce` (k,) times, go on
-    from their next scattering event (Cycles' path_state_next: a volume scatter counts a bounce and a volume bounce;
-    past Volume Bounces or Max Bounces the path ends after it, its phase ray still finding light)."""
+def volume_bounces_left(ctx: Context, volume: np.ndarray, bounce: np.ndarray, transmission=0,
+                        glossy=0) -> np.ndarray:
+    """Which paths (k,) bool, having scattered `volume` (k,) times in media and bounced `bounce` (k,) times
+    (`transmission`, `glossy`: scalars or (k,), of those), go on from their next scattering event (Cycles'
+    path_state_next: a volume scatter counts a bounce and a volume bounce; past Volume Bounces or Max Bounces the path
+    ends after it, its phase ray still finding light; and where that phase ray is Fast GI's, fast_gi_scatter, the path
+    ends at what it meets, only absorbing on the way: its single scattering with a short phase ray, in_scattering)."""
     s = ctx.settings
-    return (np.asarray(volume) < s.volume_bounces) & (np.asarray(bounce) + 1 <= s.max_bounces)
+    shape = np.broadcast_shapes(np.shape(volume), np.shape(bounce), np.shape(transmission), np.shape(glossy))
+    short = fast_gi_scatter(s, int(np.prod(shape)), np.ravel(np.broadcast_to(bounce, shape)),
+                            np.ravel(np.broadcast_to(transmission, shape)), np.ravel(np.broadcast_to(glossy, shape)))
+    left = (np.asarray(volume) < s.volume_bounces) & (np.asarray(bounce) + 1 <= s.max_bounces) & ~short.reshape(shape)
+    return left if shape else bool(left)
 
 
 def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
@@ -523,11 +543,12 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
     its phase ray, whose own stretch scatters or goes on again while it has bounces left, and otherwise gathers its
     single scattering (in_scattering, `behind`: path.through_transparent) and goes on to its hit.
 
-    counts: the paths' counters, each (k,) int64: "bounce", "volume" (scattering events so far), and any others
-    (diffuse, glossy...) carried unchanged. Returns (L (k, 3) the light found, throughput included; shadow rays;
-    through (k, 3) what a path going on to its own ray's end carries on (0 where it scattered); arrivals: None or a
-    dict of the scattered paths that reach a surface: origin (a,) the ray each came from, throughput (a, 3), O, D
-    (a, 3) their last ray, hits, pdf (a,) its phase pdf, inside (a, V), and each counter of `counts`).
+    counts: the paths' counters, each (k,) int64: "bounce", "volume" (scattering events so far), "transmission" and
+    "glossy" (Fast GI's count, volume_bounces_left), and any others (diffuse...) carried unchanged. Returns (L (k, 3)
+    the light found, throughput included; shadow rays; through (k, 3) what a path going on to its own ray's end
+    carries on (0 where it scattered); arrivals: None or a dict of the scattered paths that reach a surface: origin
+    (a,) the ray each came from, throughput (a, 3), O, D (a, 3) their last ray, hits, pdf (a,) its phase pdf, inside
+    (a, V), and each counter of `counts`).
     events: a dict that receives L's two parts (the light passes, lightpasses.add_scattered): "first" (k, 3) the
     light gathered at the stretches' own scattering events, "later" (k, 3) at the events after them; or None.
     groups: a lightgroups.GroupLight of the k rays that receives L (throughput included) by group, or None."""
@@ -554,7 +575,7 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
         reach = np.where(hits.hit, hits.t, np.inf)
         dim = dimension + step * CHAIN_SHIFT
         stack = inside[origin]
-        going = volume_bounces_left(ctx, state["volume"], state["bounce"])
+        going = volume_bounces_left(ctx, state["volume"], state["bounce"], state["transmission"], state["glossy"])
         carry = np.zeros((len(origin), 3))
         # a. Paths that end at their next scattering event: their single scattering, and on to the hit with T.
         last = np.flatnonzero(~going)
@@ -562,7 +583,9 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
             last_groups = part_tally(groups, len(last))
             found, count = in_scattering(ctx, P[last], wi[last], reach[last], stack[last], carried[last],
                                          pixel[origin[last]], sample[origin[last]], dim, state["bounce"][last],
-                                         behind, groups=last_groups)
+                                         behind, groups=last_groups,
+                                         ao=fast_gi_scatter(ctx.settings, len(last), state["bounce"][last],
+                                                            state["transmission"][last], state["glossy"][last]))
             np.add.at(L, origin[last], carried[last] * found)
             if groups is not None:
                 groups.add_rows(origin[last], last_groups, carried[last])

@@ -571,8 +571,9 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
     Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c), any number of them (its
     volume stack is sparse); that a ray is in at most Media.room of them at once (Cycles' limit, in both kernels) is
-    said once in `warnings` where a scene has more, and so is that Whitted's tracer, which renders media on the Python reference, scatters once
-    (no Volume Bounces). (prepare says which light group the emission
+    said once in `warnings` where a scene has more, and so is that Whitted's tracer, which renders media on the Python
+    reference, scatters once (no Volume Bounces). With Fast GI (Replace) and an object's own AO Distance, that the
+    phase rays of scattering points look the render's is said once too. (prepare says which light group the emission
     of overlapping media of different groups goes to.)"""
     media = ctx.extra.get("media")
     if media is None:
@@ -592,6 +593,14 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                 "of passing them (Cycles 5.0 guides that choice along camera rays: a few per cent apart)"
                 + ("; heterogeneous media through their march, each piece at its midpoint's coefficients (the image "
                    "corrects the march by ratio tracking)" if media.heterogeneous else ""))
+        if note not in warnings:
+            warnings.append(note)
+    if (media.scatters and s.integrator == "path" and s.ao_bounces and s.ao_factor
+            and len(getattr(ctx.geometry, "instance_ao_distance", ())) and ctx.geometry.instance_ao_distance.any()):
+        # (Fast GI's phase rays: volume.scattered_light looks the render's AO Distance far)
+        note = ("Fast GI (Replace): the rays that leave a point where a path scattered in a medium look the render's "
+                f"AO Distance ({s.ao_distance:g}) far; Cycles takes the object's own AO Distance (Object > Visibility) "
+                "of the first medium in the ray's volume stack where that object has one")
         if note not in warnings:
             warnings.append(note)
     if len(media.g) > media.room:
