@@ -37,6 +37,7 @@ from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_G
                           HOLDOUT)
 from . import clamp as clamp_
 from . import lightgroups, lightpasses
+from . import mnee as mnee_
 from . import shader_rays, shadows
 from .base import Context, Recorder, check_stop
 from . import subsurface as subsurface_
@@ -201,6 +202,12 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 lit &= linking.lights_receivers(ctx.geometry, light, ls, surface.prim)    # Light Linking
             recorder.light_sample(index, count, ls, NL, NgL, cosine, face_allows, lit)
             rows = np.flatnonzero(lit)
+            if len(rows) and mnee_.walks(light) and len(ctx.geometry.instance_caustics):
+                # Shadow caustics (Cycles' MNEE): a receiver's samples that the walk through the casters lights
+                # are lit that way; a caster's samples from behind it (through its glass) are dropped.
+                rows = shadow_caustics(ctx, surface, shader, wo, rows, index, light, ls, NL, pixel, sample, count, j,
+                                       dimension, path, light_path, L_out, recorder, groups, parts, clamping,
+                                       throughput, limit)
             if len(rows) == 0:
                 continue
             # c. One shadow ray per lit sample, from a point safely off the surface.
@@ -278,6 +285,54 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                                                          ray.slot)
             parts.gathered[ray.rows] += lightpasses.split(finds[ray.rows], parts.ray_shares)
     return L_out, shadow_rays, ray
+
+
+def shadow_caustics(ctx: Context, surface, shader, wo, rows: np.ndarray, index: int, light, ls, NL: np.ndarray,
+                    pixel, sample, count: int, j: int, dimension: int, path: PathState, light_path, L_out, recorder,
+                    groups, parts, clamping: bool, throughput, limit) -> np.ndarray:
+    """Light the samples `rows` of caustics light `light` (its index, sample j of count) that MNEE walks
+    (core/integrators/mnee.py) into L_out (and the recorder, light groups and light passes), as Cycles'
+    integrate_surface_direct_light does: the rows (r,) int64 left for the ordinary light sample."""
+    flags = ctx.geometry.caustics_flags(surface.prim[rows])
+    behind = NL[rows] < 0.0                       # (Cycles: the light behind the shading normal, a transmission)
+    rows = rows[~(((flags & mnee_.CASTER) != 0) & behind)]
+    flags = ctx.geometry.caustics_flags(surface.prim[rows])
+    walk = rows[((flags & mnee_.RECEIVER) != 0) & ~(NL[rows] < 0.0)]
+    if not len(walk):
+        return rows
+    # (the numbers that sample rough interfaces: two dimensions of the light's own four)
+    u_h = sampling.sample_2d(ctx.settings.seed, pixel[walk], sample[walk] * count + j,
+                             dimension=light_dimension(index) + dimension + 2)
+    found = mnee_.sample(ctx, surface, shader, wo, walk, light, ls, u_h,
+                         None if path.light_path is None else light_path)
+    if not found.done.any():
+        return rows
+    done = walk[found.done]
+    rays = found.rays
+    s = ctx.settings
+    if not light.cast_shadow:
+        through = np.ones((len(done), 1))
+    elif ctx.extra.get("transparent", False):
+        shadow_paths = graph_.paths_at(graph_.with_flags(light_path, graph_.PATH_SHADOW), done)
+        through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, None, shadow_paths,
+                                        shadow_blockers(ctx, light, ls, done))
+    else:
+        through = shadows.visible(ctx.geometry.tracer, rays)[:, None].astype(np.float64)
+    color = ls.color if ls.color.ndim == 1 else ls.color[done]
+    value = (1.0 / count) * color * found.value[found.done] * through
+    if clamping:
+        value = clamp_.clamped(value, None if throughput is None else throughput[done],
+                               limit if np.ndim(limit) == 0 else limit[done], count)
+    recorder.contribution(index, done, value, np.ones(len(done)))
+    L_out[done] += value
+    if groups is not None:
+        group = groups.groups.of_sample(ctx.geometry, index, light, ls)
+        groups.add(done, value, group if np.ndim(group) == 0 else group[done])
+    if parts is not None:
+        part = shader.closures.rows(done)
+        parts.gathered[done] += lightpasses.split(value, lightpasses.kind_shares(part, wo[done],
+                                                                                 found.first[found.done]))
+    return np.setdiff1d(rows, done)
 
 
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
