@@ -123,13 +123,20 @@ def lamp_crossing_notes(scene) -> list:
 
 
 def light_notes(obj) -> list:
-    """Lamp settings that Primer does not model: a shadow caustics light (Cycles' manifold next-event estimation)."""
+    """Lamp settings that Primer does not model: a shadow caustics light (Cycles' manifold next-event estimation) of a
+    kind core/integrators/mnee.py does not walk (area lamps, point and spot lamps with a radius and Soft Falloff off,
+    which Cycles makes spheres). Point, spot and sun lamps are walked by the Python reference; the compiled kernels
+    warn at render time (mnee.notes)."""
     light = obj.data
     cycles = getattr(getattr(getattr(obj, "original", obj), "data", light), "cycles", None)    # (as the user set it)
     notes = []
-    if cycles is not None:
-        if getattr(cycles, "is_caustics_light", False):
-            notes.append(f"light '{obj.name}' is a shadow caustics light; Primer renders no manifold caustics")
+    if cycles is not None and getattr(cycles, "is_caustics_light", False):
+        sphere = (light.type in {"POINT", "SPOT"} and float(getattr(light, "shadow_soft_size", 0.0)) > 0.0
+                  and not bool(getattr(light, "use_soft_falloff", True)))
+        if light.type not in {"POINT", "SPOT", "SUN"} or sphere:
+            notes.append(f"light '{obj.name}' is a shadow caustics light; Primer walks no manifold caustics for "
+                         f"{'sphere lamps (Soft Falloff off)' if sphere else light.type.lower() + ' lamps'}: casters "
+                         "cast their ordinary shadow of it")
     return notes
 
 
@@ -140,7 +147,8 @@ def world_notes(world) -> list:
     cycles = getattr(world, "cycles", None)
     if cycles is not None:
         if getattr(cycles, "is_caustics_light", False):
-            notes.append("the world is a shadow caustics light; Primer renders no manifold caustics")
+            notes.append("the world is a shadow caustics light; Primer walks no manifold caustics for the world (only "
+                         "for point, spot and sun lamps): casters cast their ordinary shadow of it")
     return notes
 
 

@@ -76,6 +76,14 @@ def walks(light) -> bool:
     return kind == "SUN"
 
 
+def active(ctx) -> bool:
+    """Whether a render of `ctx` walks: a caustics light that is walked, a caster and a receiver (Cycles' MNEE kernel
+    feature and integrator.use_caustics)."""
+    flags = ctx.geometry.instance_caustics
+    return (len(flags) > 0 and bool((flags & CASTER).any()) and bool((flags & RECEIVER).any())
+            and any(walks(light) for light in ctx.lights))
+
+
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot products: (..., 3), (..., 3) -> (...)."""
     return np.einsum("...j,...j->...", a, b)
@@ -565,7 +573,8 @@ def sample(ctx, surface, shader, wo: np.ndarray, rows: np.ndarray, light, ls, u_
     """MNEE for light `light`'s samples `ls` at the receiver hits `rows` (r,) of `surface` (their closures in
     `shader`, viewer directions wo (m, 3)); u_h (r, 2) the numbers that sample rough interfaces' microfacets.
     paths: the graph.LightPaths of the m hits (their bounces so far: a chain that would pass the render's bounce
-    limits is not walked, as Cycles checks), or None: a camera ray's hits."""
+    limits is not walked, as Cycles checks: the chain's vertices are bounces, the receiver's a diffuse one; so the
+    direct tracer, a path of Max Bounces 0, never walks), or None: a camera ray's hits."""
     from .. import materials as materials_
     from ..geometry.surface import surface_at_hits
     geometry = ctx.geometry
@@ -576,8 +585,10 @@ def sample(ctx, surface, shader, wo: np.ndarray, rows: np.ndarray, light, ls, u_
     s = ctx.settings
     bounce, diffuse, transmission = ((0, 0, 0) if paths is None else
                                      (paths.bounce[rows], paths.diffuse[rows], paths.transmission[rows]))
-    over = ((transmission + count - 1 >= s.transmission_bounces) | (diffuse + 1 >= s.diffuse_bounces)
-            | (bounce + count >= s.max_bounces))
+    # (Cycles' limits are the settings + 1; the direct tracer is a path of Max Bounces 0, which never walks)
+    max_bounces = 0 if s.integrator == "direct" else s.max_bounces
+    over = ((transmission + count - 1 > s.transmission_bounces) | (diffuse + 1 > s.diffuse_bounces)
+            | (bounce + count > max_bounces))
     count = np.where(over, 0, count)
     ray_parts = []
     for c in range(1, MNEE_MAX_CAUSTIC_CASTERS + 1):
