@@ -469,7 +469,7 @@ def interface_weight(kind: np.ndarray, weight: np.ndarray, params: np.ndarray, N
     Ht, _ = unit(-(ior[:, None] * wo + wi))
     cosHI = dot(Ht, wi)
     cosM = dot(N, Ht)
-    alpha2 = params[:, mf.ALPHA] * np.where(mf.is_anisotropic(params), params[:, mf.ALPHA_Y], params[:, mf.ALPHA])
+    alpha2 = params[:, mf.ALPHA] * params[:, mf.ALPHA]      # (isotropic: a glass closure's slots past 9 hold tints)
     beck = kind == BeckmannGlass.kind
     lam = np.where(beck, mf.lambda_beckmann(alpha2, cosNI) + mf.lambda_beckmann(alpha2, cosNO),
                    mf.lambda_ggx(alpha2, cosNI) + mf.lambda_ggx(alpha2, cosNO))
@@ -557,8 +557,7 @@ def seed_chains(ctx, surface, rows: np.ndarray, ls, u_h: np.ndarray) -> tuple:
                 params = cl.params[j, slot[j]]
                 from ..materials import microfacet as mf
                 eta = 1.0 / params[mf.IOR] if part.backfacing is not None and part.backfacing[j] else params[mf.IOR]
-                ax = params[mf.ALPHA]
-                ay = params[mf.ALPHA_Y] if mf.is_anisotropic(params[None])[0] else ax
+                ax = ay = params[mf.ALPHA]          # (glass closures are isotropic: their slots past 9 hold tints)
                 h = sample_h(np.array([cl.kind[j, slot[j]]]), np.array([ax]), np.array([ay]), u_h[row:row + 1])[0]
                 links[row].append((int(prim[c[j]]), float(hu[c[j]]), float(hv[c[j]]), float(eta), h, int(slot[j])))
         P = hit_surface.I
