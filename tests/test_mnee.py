@@ -74,6 +74,7 @@ def slab_irradiance(r: float, I: float, H: float, d: float) -> float:
         return I * (1.0 - fresnel(1.0, IOR)) ** 2 / (H - d + d / IOR) ** 2
 
     def reach(t1):
+        """Where light leaving at theta1 meets the floor."""
         return (H - d) * math.tan(t1) + d * math.tan(math.asin(math.sin(t1) / IOR))
 
     lo, hi = 0.0, 0.5 * math.pi - 1e-9
@@ -143,9 +144,11 @@ def ball_lens_gain(s: float, R: float, g: float) -> float:
     point lamp a distance s before it, over I T(0)^2: 1 / B^2, where r_out = B theta_in (ray transfer matrices:
     free space s, the first surface, 2R of glass, the second surface, free space g)."""
     def space(t):
+        """Free space of length t."""
         return np.array([[1.0, t], [0.0, 1.0]])
 
     def surface(n1, n2, radius):
+        """Refraction from index n1 into n2 at a surface of signed radius."""
         return np.array([[1.0, 0.0], [(n1 - n2) / (radius * n2), n1 / n2]])
 
     M = space(g) @ surface(IOR, 1.0, -R) @ space(2.0 * R) @ surface(1.0, IOR, R) @ space(s)
@@ -206,3 +209,25 @@ def test_rough_glass_walks_sampled_microfacets_and_keeps_the_slabs_light():
                                                                          {"ior": IOR, "roughness": 0.2})])
     expected = ALBEDO / math.pi * slab_irradiance(1.0, 1000.0 / (4.0 * math.pi), 3.5, 0.5)
     assert floor_radiance(scene, 1.0, samples=128) == pytest.approx(expected, rel=0.01)
+
+
+def test_what_is_not_walked_is_warned_about():
+    """The compiled kernels do not walk (the casters cast their ordinary shadow there: a warning saying so), nor does
+    anything walk for an area lamp with Shadow Caustics (a warning naming it); the Python reference walking a point
+    lamp warns nothing."""
+    from core.lights.area import AreaLight
+
+    def notes(scene, kernels):
+        """The shadow caustics warnings of a tiny render of `scene` with `kernels`."""
+        scene.camera = Camera(matrix_world=np.eye(4), type="ORTHO", ortho_scale=1.0)
+        settings = RenderSettings(width=2, height=2, samples=1, integrator="path", kernels=kernels)
+        return [w for w in render.render(scene, settings).stats.warnings if "shadow caustics" in w]
+
+    lamp = PointLight(np.array([0.0, 0.0, 3.5]), 1000.0, caustics=True)
+    assert notes(scene_with(slab(1.0, 1.5), lamp), "numpy") == []
+    compiled = notes(scene_with(slab(1.0, 1.5), lamp), "compiled")
+    assert len(compiled) == 1 and "compiled kernels" in compiled[0]
+    area = AreaLight(np.array([0.0, 0.0, 3.5]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]),
+                     np.array([0.0, 0.0, -1.0]), name="Panel", caustics=True)
+    walked_not = notes(scene_with(slab(1.0, 1.5), area), "numpy")
+    assert len(walked_not) == 1 and "Panel" in walked_not[0]

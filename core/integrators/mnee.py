@@ -201,9 +201,11 @@ def constraints(chain: Chain, I: np.ndarray, target: np.ndarray, fixed: np.ndarr
     ok = np.ones(k, bool)
 
     def across(d, H):
+        """The part (k, 3) of vectors d (k, 3) across unit H (k, 3)."""
         return d - H * dot(d, H)[:, None]
 
     def frame_rows(dH_du, dH_dv, s, t):
+        """The 2x2 blocks (k, 2, 2) [[dH_du.s, dH_dv.s], [dH_du.t, dH_dv.t]]."""
         return np.stack([np.stack([dot(dH_du, s), dot(dH_dv, s)], -1), np.stack([dot(dH_du, t), dot(dH_dv, t)], -1)], 1)
 
     for i, x in enumerate(verts):
