@@ -231,3 +231,17 @@ def test_what_is_not_walked_is_warned_about():
                      np.array([0.0, 0.0, -1.0]), name="Panel", caustics=True)
     walked_not = notes(scene_with(slab(1.0, 1.5), area), "numpy")
     assert len(walked_not) == 1 and "Panel" in walked_not[0]
+
+
+def test_a_spot_lamps_cone_is_met_by_the_refracted_path_not_the_straight_one():
+    """A spot lamp over the slab, pointing down, its cone 61 degrees wide with a hard edge: the point 2 m off its
+    foot lies inside the cone along the straight line (29.7 degrees) but the light that reaches it through the glass
+    leaves the lamp at 31.2 degrees, outside, and Cycles (spot_light_mnee_sample_update) weighs it by the cone along
+    the direction it leaves: no light. 1.5 m off (23.8 degrees) it is the point lamp's closed form."""
+    from core.lights.spot import SpotLight
+    spot = SpotLight(np.array([0.0, 0.0, 3.5]), np.array([0.0, 0.0, -1.0]), 1000.0, spot_size=math.radians(61.0),
+                     spot_blend=0.0, caustics=True)
+    scene = scene_with(slab(1.0, 1.5), spot)
+    expected = ALBEDO / math.pi * slab_irradiance(1.5, 1000.0 / (4.0 * math.pi), 3.5, 0.5)
+    assert floor_radiance(scene, 1.5) == pytest.approx(expected, rel=2e-3)
+    assert floor_radiance(scene, 2.0) == 0.0
