@@ -237,7 +237,7 @@ def test_a_spot_lamps_cone_is_met_by_the_refracted_path_not_the_straight_one():
     """A spot lamp over the slab, pointing down, its cone 61 degrees wide with a hard edge: the point 2 m off its
     foot lies inside the cone along the straight line (29.7 degrees) but the light that reaches it through the glass
     leaves the lamp at 31.2 degrees, outside, and Cycles (spot_light_mnee_sample_update) weighs it by the cone along
-    the direction it leaves: no light. 1.5 m off (23.8 degrees) it is the point lamp's closed form."""
+    the direction it leaves: no light. 1.5 m off (24.3 degrees) it is the point lamp's closed form."""
     from core.lights.spot import SpotLight
     spot = SpotLight(np.array([0.0, 0.0, 3.5]), np.array([0.0, 0.0, -1.0]), 1000.0, spot_size=math.radians(61.0),
                      spot_blend=0.0, caustics=True)
