@@ -126,20 +126,15 @@ def lamp_crossing_notes(scene) -> list:
 
 def light_notes(obj) -> list:
     """Lamp settings that Primer does not model: a shadow caustics light (Cycles' manifold next-event estimation) of a
-    kind core/integrators/mnee.py does not walk (area lamps of Spread 0, point and spot lamps with a radius and Soft
-    Falloff off, which Cycles makes spheres). Point, spot, area and sun lamps are walked by the Python reference; the
-    compiled kernels warn at render time (mnee.notes)."""
+    kind core/integrators/mnee.py does not walk (area lamps of Spread 0). Point, spot (round or spheres), area and sun
+    lamps are walked by the Python reference; the compiled kernels warn at render time (mnee.notes)."""
     light = obj.data
     cycles = getattr(getattr(getattr(obj, "original", obj), "data", light), "cycles", None)    # (as the user set it)
     notes = []
     if cycles is not None and getattr(cycles, "is_caustics_light", False):
-        sphere = (light.type in {"POINT", "SPOT"} and float(getattr(light, "shadow_soft_size", 0.0)) > 0.0
-                  and not bool(getattr(light, "use_soft_falloff", True)))
-        narrow = light.type == "AREA" and float(getattr(light, "spread", math.pi)) <= 0.0
-        if sphere or narrow:
+        if light.type == "AREA" and float(getattr(light, "spread", math.pi)) <= 0.0:
             notes.append(f"light '{obj.name}' is a shadow caustics light; Primer walks no manifold caustics for "
-                         f"{'sphere lamps (Soft Falloff off)' if sphere else 'area lamps of Spread 0'}: casters "
-                         "cast their ordinary shadow of it")
+                         "area lamps of Spread 0: casters cast their ordinary shadow of it")
     return notes
 
 
@@ -151,7 +146,7 @@ def world_notes(world) -> list:
     if cycles is not None:
         if getattr(cycles, "is_caustics_light", False):
             notes.append("the world is a shadow caustics light; Primer walks no manifold caustics for the world (only "
-                         "for point, spot and sun lamps): casters cast their ordinary shadow of it")
+                         "for point, spot, area and sun lamps): casters cast their ordinary shadow of it")
     return notes
 
 

@@ -270,3 +270,16 @@ def test_a_small_area_lamp_through_the_slab_is_a_cosine_lamp(r):
     expected = ALBEDO / math.pi * slab_irradiance(r, 100.0 / math.pi * math.cos(theta1), 3.5, 0.5)
     got = floor_radiance(scene, r, samples=16)
     assert got == pytest.approx(expected, rel=2e-3)
+
+
+def test_a_small_sphere_lamp_through_the_slab_tends_to_the_point_lamp():
+    """A sphere lamp (Soft Falloff off), 1000 W, over the slab: MNEE holds the point sampled on its near side and
+    turns its cone's pdf from the last interface (the cone about the sphere's centre) into the area measure at the
+    point (Cycles' point_light_mnee_sample_update), which is off by O(R / d): 1 m off its foot, measured at 64
+    samples, 1.28 % under the point lamp's closed form at radius 5 cm and 0.12 % at 5 mm. Cycles renders the same:
+    a one-off Blender run of this slab under a sphere lamp of radius 0.3, Primer 128 and Cycles 512 samples, block
+    relMSE 7.3e-6, means 0.09 % apart."""
+    lamp = PointLight(np.array([0.0, 0.0, 3.5]), 1000.0, radius=0.005, soft_falloff=False, caustics=True)
+    scene = scene_with(slab(1.0, 1.5), lamp)
+    expected = ALBEDO / math.pi * slab_irradiance(1.0, 1000.0 / (4.0 * math.pi), 3.5, 0.5)
+    assert floor_radiance(scene, 1.0, samples=16) == pytest.approx(expected, rel=2e-3)

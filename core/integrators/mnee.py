@@ -25,9 +25,9 @@ Fascione 2015, "Manifold Next Event Estimation"), for the lamps marked Light > S
 This replaces the ordinary light sample of that light at that point (no MIS); where the seed finds no caster, or the
 walk or its visibility checks fail, the ordinary light sample stays (whose shadow ray the glass stops). A caster's own
 light samples of a caustics light from behind it (through the glass) are dropped, as Cycles does. Lamps: point and
-spot (radius 0 or a round disk: the light point stays where it was sampled), area lamps with a spread (the point held,
-its pdf from the last vertex in area measure) and sun lamps; sphere lamps (soft falloff off), area lamps of Spread 0
-(a fixed direction in Cycles) and the world are not walked (Primer warns).
+spot (radius 0, a round disk or a sphere: the light point stays where it was sampled), area lamps with a spread (the
+point held, its pdf from the last vertex in area measure) and sun lamps; area lamps of Spread 0 (a fixed direction in
+Cycles) and the world are not walked (Primer warns).
 
 Cycles' source: intern/cycles/kernel/integrator/mnee.h (kernel_path_mnee_sample and what it calls), called from
 shade_surface.h integrate_surface_direct_light. Python reference only: the compiled kernels do not walk (Primer warns).
@@ -69,12 +69,12 @@ def refractive_kinds() -> np.ndarray:
 
 def walks(light) -> bool:
     """Whether MNEE walks for light samples of `light`: a caustics light of a kind modelled here (point and spot lamps,
-    round ones with soft falloff; area lamps with a spread; suns)."""
+    area lamps with a spread, suns)."""
     if not getattr(light, "caustics", False):
         return False
     kind = getattr(light, "blender_type", "")
     if kind in ("POINT", "SPOT"):
-        return light.radius <= 0.0 or light.soft_falloff
+        return True
     if kind == "AREA":                    # (Spread 0, a fixed direction in Cycles, is left out)
         return light.spread > 0.0 and light.area() > 0.0
     return kind == "SUN"
@@ -494,12 +494,18 @@ def light_values(light, ls, rows: np.ndarray, last: np.ndarray) -> tuple:
     if getattr(light, "blender_type", "") == "SUN":
         return ls.strength[rows], -ls.L[rows], ls.L[rows].copy(), np.ones(r, bool)
     P = ls.position[rows]
-    if getattr(light, "blender_type", "") == "AREA":
+    kind = getattr(light, "blender_type", "")
+    sphere = kind in ("POINT", "SPOT") and light.radius > 0.0 and not light.soft_falloff
+    if kind == "AREA" or sphere:
         # The light point held; its radiance towards the last vertex over the pdf of that direction there, turned into
-        # the light's area measure (Cycles' area_light_mnee_sample_update).
+        # the light's area measure (Cycles' area_light_mnee_sample_update, and point_light_mnee_sample_update's
+        # sphere: its cone's pdf times |cos| / t^2 at the point).
         D, t = unit(P - last)
         seen = light.hit(last, D, t * (1.0 + 1e-9) + 1e-9)
-        normal = np.broadcast_to(np.asarray(light.direction, np.float64), (r, 3))
+        if sphere:
+            normal, _ = unit(P - np.asarray(light.position, np.float64))
+        else:
+            normal = np.broadcast_to(np.asarray(light.direction, np.float64), (r, 3))
         cos_light = -dot(D, normal)
         pdf_area = seen.pdf * np.abs(cos_light) / (t * t)
         color = np.broadcast_to(ls.color if ls.color.ndim == 1 else ls.color[rows], (r, 3))
@@ -694,7 +700,7 @@ def sample(ctx, surface, shader, wo: np.ndarray, rows: np.ndarray, light, ls, u_
 
 def notes(ctx, compiled: bool) -> list:
     """What a render of `ctx` leaves out of Cycles' shadow caustics (warnings, list of str): caustics lights that are
-    not walked (sphere lamps, area lamps of Spread 0) and, where the compiled kernels render (`compiled`),
+    not walked (area lamps of Spread 0) and, where the compiled kernels render (`compiled`),
     the walk itself, which only the Python reference takes."""
     lights = [light for light in ctx.lights if getattr(light, "caustics", False)]
     if not lights or not len(ctx.geometry.instance_caustics):
@@ -708,6 +714,6 @@ def notes(ctx, compiled: bool) -> list:
                    "cast their ordinary shadow (render with Kernels: NumPy, the Python reference, for the caustics)")
     left = sorted({getattr(light, "name", "light") for light in lights if not walks(light)})
     if left:
-        out.append(f"shadow caustics: {', '.join(left)} (sphere lamps without soft falloff, area lamps of Spread 0) "
-                   "are not walked; casters cast their ordinary shadow of them")
+        out.append(f"shadow caustics: {', '.join(left)} (area lamps of Spread 0) are not walked; casters cast their "
+                   "ordinary shadow of them")
     return out
