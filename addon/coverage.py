@@ -277,9 +277,10 @@ COVERAGE = {
                                     "motion.give_motion, and at the Vector pass's frames, "
                                     "motion.sample_vector_frames)",
                "use_camera_cull use_distance_cull": "export.object_culling (each object's Culling flags)",
-               "ao_distance": "export.instance_keywords (its own Fast GI AO Distance, core Instance.ao_distance)"},
-        REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes",
-                   "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)"},
+               "ao_distance": "export.instance_keywords (its own Fast GI AO Distance, core Instance.ao_distance)",
+               "is_caustics_caster is_caustics_receiver": "export.instance_keywords (Shadow Caustics: core Instance "
+                                                          "caustics_caster, caustics_receiver; core/integrators/mnee.py)"},
+        REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes"},
     },
     "CollectionLightLinking": {
         READ: {"link_state": "linking.reached (Include or Exclude, for an object or everything in a child collection)"},
@@ -357,8 +358,9 @@ COVERAGE = {
     },
     "CyclesLightSettings": {
         READ: {"is_portal": "export._export_light (a portal sends no light of its own)",
-               "max_bounces use_multiple_importance_sampling": "export.export_light"},
-        REPORTED: {"is_caustics_light": "unmodelled.light_notes"},
+               "max_bounces use_multiple_importance_sampling": "export.export_light",
+               "is_caustics_light": "export.export_light (Shadow Caustics: core/integrators/mnee.py walks the light's "
+                                    "samples through caster glass; unmodelled.light_notes where it does not)"},
     },
     "World": {
         READ: {"color node_tree use_nodes": "export.export_world", "lightgroup": "lightgroups.source_group",

@@ -722,9 +722,13 @@ def terminator_keywords(obj) -> dict:
 
 def instance_keywords(obj) -> dict:
     """What a core Instance reads of an object besides its mesh and materials: Ray Visibility, Holdout, the shadow
-    terminator offsets (ray_visibility, terminator_keywords) and its own Fast GI AO Distance (Object > Visibility)."""
-    own = float(getattr(getattr(obj, "cycles", None), "ao_distance", 0.0) or 0.0)
-    return {**ray_visibility(obj), **terminator_keywords(obj), **({"ao_distance": own} if own else {})}
+    terminator offsets (ray_visibility, terminator_keywords), its own Fast GI AO Distance (Object > Visibility) and
+    its Shadow Caustics switches (Object > Shading > Caustics: core Instance.caustics_caster, caustics_receiver)."""
+    cycles = getattr(obj, "cycles", None)
+    own = float(getattr(cycles, "ao_distance", 0.0) or 0.0)
+    caustics = {"caustics_caster": bool(getattr(cycles, "is_caustics_caster", False)),
+                "caustics_receiver": bool(getattr(cycles, "is_caustics_receiver", False))}
+    return {**ray_visibility(obj), **terminator_keywords(obj), **({"ao_distance": own} if own else {}), **caustics}
 
 
 def indirect_only(instance, view_layer) -> bool:
@@ -764,6 +768,7 @@ def export_light(obj, matrix: np.ndarray, warnings: list, instance=None):
         cycles = getattr(getattr(getattr(obj, "original", obj), "data", obj.data), "cycles", None)   # (as the user set it)
         core.use_mis = bool(getattr(cycles, "use_multiple_importance_sampling", True))
         core.max_bounces = int(getattr(cycles, "max_bounces", 1024))
+        core.caustics = bool(getattr(cycles, "is_caustics_light", False))   # Shadow Caustics (core/integrators/mnee.py)
     return core
 
 

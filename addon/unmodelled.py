@@ -8,6 +8,8 @@ renders a scene with each setting and checks its note).
 """
 from __future__ import annotations
 
+import math
+
 from . import cycles_settings
 
 # View Layer > Passes that Primer does not write: property -> the pass's name in Blender.
@@ -123,13 +125,16 @@ def lamp_crossing_notes(scene) -> list:
 
 
 def light_notes(obj) -> list:
-    """Lamp settings that Primer does not model: a shadow caustics light (Cycles' manifold next-event estimation)."""
+    """Lamp settings that Primer does not model: a shadow caustics light (Cycles' manifold next-event estimation) of a
+    kind core/integrators/mnee.py does not walk (area lamps of Spread 0). Point, spot (round or spheres), area and sun
+    lamps are walked by the Python reference; the compiled kernels warn at render time (mnee.notes)."""
     light = obj.data
     cycles = getattr(getattr(getattr(obj, "original", obj), "data", light), "cycles", None)    # (as the user set it)
     notes = []
-    if cycles is not None:
-        if getattr(cycles, "is_caustics_light", False):
-            notes.append(f"light '{obj.name}' is a shadow caustics light; Primer renders no manifold caustics")
+    if cycles is not None and getattr(cycles, "is_caustics_light", False):
+        if light.type == "AREA" and float(getattr(light, "spread", math.pi)) <= 0.0:
+            notes.append(f"light '{obj.name}' is a shadow caustics light; Primer walks no manifold caustics for "
+                         "area lamps of Spread 0: casters cast their ordinary shadow of it")
     return notes
 
 
@@ -140,7 +145,8 @@ def world_notes(world) -> list:
     cycles = getattr(world, "cycles", None)
     if cycles is not None:
         if getattr(cycles, "is_caustics_light", False):
-            notes.append("the world is a shadow caustics light; Primer renders no manifold caustics")
+            notes.append("the world is a shadow caustics light; Primer walks no manifold caustics for the world (only "
+                         "for point, spot, area and sun lamps): casters cast their ordinary shadow of it")
     return notes
 
 

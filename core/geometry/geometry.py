@@ -80,6 +80,8 @@ class WorldGeometry:
     instance_terminator: (n, 2) float64 each Scene.instances entry's shadow terminator (terminator_table): its
                     Geometry Offset (-1: the render's) and its Shading Offset as Cycles' frequency multiplier, or an
                     empty array when every object takes the render's offset and bends no cosine
+    instance_caustics: (n,) uint8 each Scene.instances entry's shadow caustics bits (core/integrators/mnee.py CASTER,
+                    RECEIVER), or an empty array when no object casts or receives shadow caustics
     The arrays above hold the copied triangles only; ask `triangle_data` for any triangle.
     """
 
@@ -105,6 +107,7 @@ class WorldGeometry:
     instance_links: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.uint64))
     instance_terminator: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     instance_ao_distance: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    instance_caustics: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
 
     @property
     def has_smooth(self) -> bool:
@@ -242,6 +245,14 @@ class WorldGeometry:
             return None
         owner = self.owners(np.asarray(prim, np.int64))
         return np.where(owner >= 0, self.instance_terminator[np.maximum(owner, 0), 1], 1.0)
+
+    def caustics_flags(self, prim: np.ndarray) -> np.ndarray:
+        """The shadow caustics bits (k,) uint8 (mnee.CASTER, mnee.RECEIVER) of the object of each triangle `prim` (k,)
+        int64 (0 for triangles of no object)."""
+        if not len(self.instance_caustics):
+            return np.zeros(len(prim), np.uint8)
+        owner = self.owners(np.asarray(prim, np.int64))
+        return np.where(owner >= 0, self.instance_caustics[np.maximum(owner, 0)], 0).astype(np.uint8)
 
     def owners(self, prim: np.ndarray) -> np.ndarray:
         """The index into Scene.instances of the object each triangle `prim` (k,) int64 belongs to, -1 for none."""
@@ -677,6 +688,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_links=link_table(scene.instances),
         instance_terminator=terminator_table(scene.instances),
         instance_ao_distance=ao_distance_table(scene.instances),
+        instance_caustics=caustics_table(scene.instances),
     )
 
 
@@ -739,6 +751,14 @@ def ao_distance_table(instances: list) -> np.ndarray:
     none has one."""
     table = np.array([float(getattr(i, "ao_distance", 0.0) or 0.0) for i in instances], np.float64)
     return table if (table != 0.0).any() else np.zeros(0)
+
+
+def caustics_table(instances: list) -> np.ndarray:
+    """(n,) uint8 each instance's shadow caustics bits (1: casts, 2: receives; core/integrators/mnee.py); empty where
+    none has any."""
+    table = np.array([(1 if getattr(i, "caustics_caster", False) else 0)
+                      | (2 if getattr(i, "caustics_receiver", False) else 0) for i in instances], np.uint8)
+    return table if table.any() else np.zeros(0, np.uint8)
 
 
 def terminator_table(instances: list) -> np.ndarray:

@@ -66,6 +66,7 @@ from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Integrator, Radiance, Recorder, check_stop
 from . import clamp as clamp_
+from . import mnee as mnee_
 from . import features as features_
 from . import lightgroups, lightpasses, shader_rays
 from . import passes as passes_
@@ -442,6 +443,10 @@ class PathTracing(Integrator):
              mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
              shares, volume, wo, min_pdf) = state.values()
         exiting = np.zeros(len(owner), bool)         # which vertices are subsurface walks' exits (subsurface.py)
+        # Shadow caustics (core/integrators/mnee.py): which paths left a receiver (Cycles' PATH_MNEE_RECEIVER_ANCESTOR);
+        # a caster's BSDF ray on such a path finds no caustics lamp, whose light MNEE brings.
+        walking = mnee_.active(ctx)
+        ancestor = np.zeros(len(O), bool)
         while len(owner):
             check_stop(ctx)
             # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
@@ -469,9 +474,14 @@ class PathTracing(Integrator):
                 passes_.at_vertex(ctx, data, np.flatnonzero(first & ~exiting), owner, vertex, surface, shader, wo, throughput,
                                   pixel[owner], sample[owner], dimension)
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
+            cull = None
+            if walking:
+                caustic_flags = ctx.geometry.caustics_flags(surface.prim)
+                cull = ((caustic_flags & mnee_.CASTER) != 0) & ancestor[owner]
+                ancestor[owner[(caustic_flags & mnee_.RECEIVER) != 0]] = True
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
                               carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside,
-                              carried_receiver=mis_receiver, min_pdf=min_pdf)
+                              carried_receiver=mis_receiver, min_pdf=min_pdf, caustics_cull=cull)
             vertex_groups = lightgroups.tally(ctx, len(owner))
             emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,

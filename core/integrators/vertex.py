@@ -37,6 +37,7 @@ from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_G
                           HOLDOUT)
 from . import clamp as clamp_
 from . import lightgroups, lightpasses
+from . import mnee as mnee_
 from . import shader_rays, shadows
 from .base import Context, Recorder, check_stop
 from . import subsurface as subsurface_
@@ -66,6 +67,9 @@ class PathState(NamedTuple):
                Cycles' mis_ray_object)
     inside:    (m, V) int16 the media the rays that reached the hits were in (core/volumes Media.crossed), or None:
                no media. Rays leaving a hit to the other side of its surface enter or leave its material's medium.
+    caustics_cull: (m,) bool the hits whose BSDF rays find no caustics lamp (Cycles' PATH_MNEE_CULL_LIGHT_CONNECTION:
+               a caster's hit on a path that left a receiver before; that light is MNEE's, core/integrators/mnee.py),
+               or None: none
     min_pdf:   (m,) the smallest pdf of each path's real bounces so far (Cycles' min_ray_pdf, which the Bevel node
                reads), or None: none (a camera ray's)
     """
@@ -84,6 +88,7 @@ class PathState(NamedTuple):
     inside: Optional[np.ndarray] = None
     carried_receiver: Optional[np.ndarray] = None
     min_pdf: Optional[np.ndarray] = None
+    caustics_cull: Optional[np.ndarray] = None
 
 
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -202,6 +207,12 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 lit &= linking.lights_receivers(ctx.geometry, light, ls, surface.prim)    # Light Linking
             recorder.light_sample(index, count, ls, NL, NgL, cosine, face_allows, lit)
             rows = np.flatnonzero(lit)
+            if len(rows) and mnee_.walks(light) and len(ctx.geometry.instance_caustics):
+                # Shadow caustics (Cycles' MNEE): a receiver's samples that the walk through the casters lights
+                # are lit that way; a caster's samples from behind it (through its glass) are dropped.
+                rows = shadow_caustics(ctx, surface, shader, wo, rows, index, light, ls, NL, pixel, sample, count, j,
+                                       dimension, path, light_path, L_out, recorder, groups, parts, clamping,
+                                       throughput, limit)
             if len(rows) == 0:
                 continue
             # c. One shadow ray per lit sample, from a point safely off the surface.
@@ -262,7 +273,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N, light_path=light_path,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups,
                               inside=path.inside, carried_receiver=path.carried_receiver, min_pdf=path.min_pdf,
-                              throughput=throughput)
+                              throughput=throughput, cull=path.caustics_cull)
         if clamping:
             f = clamp_.scale(finds, throughput, limit)
             finds = finds * f[:, None]
@@ -281,11 +292,60 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     return L_out, shadow_rays, ray
 
 
+def shadow_caustics(ctx: Context, surface, shader, wo, rows: np.ndarray, index: int, light, ls, NL: np.ndarray,
+                    pixel, sample, count: int, j: int, dimension: int, path: PathState, light_path, L_out, recorder,
+                    groups, parts, clamping: bool, throughput, limit) -> np.ndarray:
+    """Light the samples `rows` of caustics light `light` (its index, sample j of count) that MNEE walks
+    (core/integrators/mnee.py) into L_out (and the recorder, light groups and light passes), as Cycles'
+    integrate_surface_direct_light does: the rows (r,) int64 left for the ordinary light sample."""
+    flags = ctx.geometry.caustics_flags(surface.prim[rows])
+    behind = NL[rows] < 0.0                       # (Cycles: the light behind the shading normal, a transmission)
+    rows = rows[~(((flags & mnee_.CASTER) != 0) & behind)]
+    flags = ctx.geometry.caustics_flags(surface.prim[rows])
+    walk = rows[((flags & mnee_.RECEIVER) != 0) & ~(NL[rows] < 0.0)]
+    if not len(walk):
+        return rows
+    # (the numbers that sample rough interfaces: two dimensions of the light's own four)
+    u_h = sampling.sample_2d(ctx.settings.seed, pixel[walk], sample[walk] * count + j,
+                             dimension=light_dimension(index) + dimension + 2)
+    found = mnee_.sample(ctx, surface, shader, wo, walk, light, ls, u_h,
+                         None if path.light_path is None else light_path)
+    if not found.done.any():
+        return rows
+    done = walk[found.done]
+    rays = found.rays
+    s = ctx.settings
+    if not light.cast_shadow:
+        through = np.ones((len(done), 1))
+    elif ctx.extra.get("transparent", False):
+        shadow_paths = graph_.paths_at(graph_.with_flags(light_path, graph_.PATH_SHADOW), done)
+        through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, None, shadow_paths,
+                                        shadow_blockers(ctx, light, ls, done))
+    else:
+        through = shadows.visible(ctx.geometry.tracer, rays)[:, None].astype(np.float64)
+    color = ls.color if ls.color.ndim == 1 else ls.color[done]
+    value = (1.0 / count) * color * found.value[found.done] * through
+    if clamping:
+        value = clamp_.clamped(value, None if throughput is None else throughput[done],
+                               limit if np.ndim(limit) == 0 else limit[done], count)
+    recorder.contribution(index, done, value, np.ones(len(done)))
+    L_out[done] += value
+    if groups is not None:
+        group = groups.groups.of_sample(ctx.geometry, index, light, ls)
+        groups.add(done, value, group if np.ndim(group) == 0 else group[done])
+    if parts is not None:
+        part = shader.closures.rows(done)
+        parts.gathered[done] += lightpasses.split(value, lightpasses.kind_shares(part, wo[done],
+                                                                                 found.first[found.done]))
+    return np.setdiff1d(rows, done)
+
+
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
              *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, light_path=None, inside=None,
-             carried_receiver=None, min_pdf=None, throughput=None):
+             carried_receiver=None, min_pdf=None, throughput=None, cull=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
+    cull: (m,) bool the hits whose rays find no caustics lamp (PathState.caustics_cull), or None.
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
     world it escapes to, each weighed by MIS against that light's own samples (weight 1 for a constant
@@ -441,7 +501,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
             mis_O=pick(mis_O), groups=ray_groups, seen_as=pick(seen_as),
             stretch=None if stretch is None else stretch.rows(traced_rays),
             paths=graph_.paths_at(after, traced_rays), receiver=pick(receiver), keys=keys, t_max=pick(t_max),
-            ao=pick(ao))
+            ao=pick(ao), cull=None if cull is None else cull[go][traced_rays])
         if groups is not None:
             groups.add_rows(go[traced_rays], ray_groups, bs.weight[go[traced_rays]])
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -449,7 +509,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
                                              mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch,
-                                             paths=after, receiver=receiver, keys=keys, t_max=t_max, ao=ao)
+                                             paths=after, receiver=receiver, keys=keys, t_max=t_max, ao=ao,
+                                             cull=None if cull is None else cull[go])
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -527,7 +588,7 @@ def reaching_from_behind(through: np.ndarray, lifts: np.ndarray, NL: np.ndarray,
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
                  camera=None, N=None, mis_O=None, groups=None, seen_as=None, stretch=None,
-                 paths=None, receiver=None, keys=None, t_max=None, ao=None) -> np.ndarray:
+                 paths=None, receiver=None, keys=None, t_max=None, ao=None, cull=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -554,7 +615,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     textured emitter's Ambient Occlusion and Bevel nodes trace (shader_rays.for_hits), or None: they trace nothing.
     t_max: (k,) how far the rays looked (None: inf): one that escapes finds no lamp beyond. ao: (k,) bool the rays of
     Fast GI (fast_gi_ray), or None: the world's light they escape to is scaled by the settings' ao_factor (its MIS
-    weight kept, as Cycles' integrate_background)."""
+    weight kept, as Cycles' integrate_background). cull: (k,) bool the rays that find no caustics lamp (a caster's ray
+    on a path that left a receiver: Cycles' PATH_MNEE_CULL_LIGHT_CONNECTION, that light is MNEE's), or None."""
     light_L = np.zeros((len(O), 3))
     sigma = stretch
     if stretch is not None:
@@ -593,6 +655,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         if receiver is not None and (ctx.geometry.linked or light.light_membership != linking.ALL_SETS):
             sees &= (kind == HIDDEN_FROM_CAMERA) | linking.in_sets(light.light_membership,
                                                                    ctx.geometry.links(receiver, 0))
+        if cull is not None and light.caustics:
+            sees &= ~cull
         found = found & sees
         radiance = np.where(sees[:, None], radiance, 0.0)
         if sigma is not None:

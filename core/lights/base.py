@@ -214,6 +214,9 @@ class Light:
     blender_type: ClassVar[str] = ""
     # Whether objects block its light (Cycles' Cast Shadow): a lamp's dataclass field, always for the others.
     cast_shadow: bool = True
+    # Whether its light samples find their way through caustics casters (Cycles' Shadow Caustics, Light >
+    # Shadow Caustics; core/integrators/mnee.py): a lamp's dataclass field, False for the others.
+    caustics = False
     # The HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility): a lamp's dataclass field, else 0.
     hidden_from: int = 0
     # Whether bounces find it and MIS weighs the two ways (Cycles' Multiple Importance): a lamp's field, else always.

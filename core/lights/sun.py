@@ -32,6 +32,7 @@ class SunLight(Light):
     hidden_from: int = 0                  # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
     use_mis: bool = True                  # BSDF rays find it too, weighed by MIS (Blender: Multiple Importance)
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
+    caustics: bool = False                # a Shadow Caustics light (Cycles' MNEE, core/integrators/mnee.py)
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
     ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)

@@ -102,6 +102,9 @@ class Instance:
     terminator_shading: Shadow Terminator > Shading Offset (0..1): Cycles bends the cosine of the light its closures
                reflect so that it reaches 0 before the terminator (core/materials/closures.py terminator_term)
     (Both only with RenderSettings.terminator_fix, the lecture's switch for Cycles' shadow terminator.)
+    caustics_caster, caustics_receiver: Object > Shading > Caustics > Cast / Receive Shadow Caustics (Cycles'
+               is_caustics_caster, is_caustics_receiver): where a caustics light's shadow rays from a receiver meet a
+               caster's refractive closures, the light path through them is found (core/integrators/mnee.py)
     ao_distance: Object > Visibility > Fast GI Approximation > AO Distance: how far Fast GI's (Replace) rays leaving
                it look (0: the render's RenderSettings.ao_distance)
     attributes: the Attribute node's Object and Instancer attributes of this object, name -> RGBA (4,) (Cycles'
@@ -155,6 +158,8 @@ class Instance:
     terminator_offset: Optional[float] = None
     terminator_shading: float = 0.0
     ao_distance: float = 0.0
+    caustics_caster: bool = False
+    caustics_receiver: bool = False
     attributes: Optional[dict] = None
     dupli_generated: Optional[tuple] = None
     dupli_uv: Optional[tuple] = None
