@@ -51,16 +51,31 @@ NOT_LIKE_CYCLES = {"shading_visibility"}
 # The real phase's scenes (issue 34): files made by other people, fetched into tools/real_scenes.py's cache (never
 # committed) and rigged there as its `compare` rigs them, each rendered with direct light and path traced. One per
 # class the issue names that this machine can fetch: a Cornell box lit by its emissive quad, a textured glTF model
-# under an HDRI, and an HDRI still life of metals (98 gold and silver spheres).
-REAL_SCENES = ("cornell_box", "gltf_damaged_helmet", "gltf_metal_rough_spheres")
+# under an HDRI, an HDRI still life of metals (98 gold and silver spheres), and an artist's scene lit by several
+# emitters (Mike Pan's BMW27 studio: emission panels, a world colour, glass, chrome, flake paint).
+REAL_SCENES = ("cornell_box", "gltf_damaged_helmet", "gltf_metal_rough_spheres", "bmw27_studio")
 REAL_INTEGRATORS = ("direct", "path")
 REAL_SIZE = (240, 180)
+# Scenes rendered smaller than REAL_SIZE, to keep the phase's time reasonable: the BMW27's Cycles reference (1024
+# samples) takes minutes at 160 x 120 on the shared 2 cores, and 2.25 times as long at 240 x 180.
+REAL_SIZES = {"bmw27_studio": (160, 120)}
 REAL_PREFIX = "real-"
+
+
+def real_size(scene: str) -> tuple:
+    """(width, height) at which the real scene `scene` (its tools/real_scenes.py name) is rigged for the bench."""
+    return REAL_SIZES.get(scene, REAL_SIZE)
 
 
 def real_name(scene: str, integrator: str) -> str:
     """The bench's name of a real scene rigged for `integrator`: real-SCENE-INTEGRATOR."""
     return f"{REAL_PREFIX}{scene}-{integrator}"
+
+
+def real_label(name: str) -> tuple:
+    """(scene, integrator) of a real phase's name real-SCENE-INTEGRATOR."""
+    scene, integrator = name[len(REAL_PREFIX):].rsplit("-", 1)
+    return scene, integrator
 
 
 def blend_of(name: str) -> str:

@@ -3,8 +3,8 @@
     .venv/bin/python bench/real_probe.py real-SCENE-INTEGRATOR [PRIMER_COUNTS [CYCLES_COUNT]]
     .venv/bin/python bench/real_probe.py real-gltf_damaged_helmet-path 8,16,32,64,128 64
 
-The scene is the bench's rigged real scene (bench/out/real/, rigged by `bench/run.py --only real` or
-tools/real_scenes.py rig) and its Cycles reference at 1024 samples is the bench's own (bench/refs/, rendered here
+The scene is the bench's rigged real scene (bench/out/real/, rigged by the bench's real phase, `bench/run.py
+--real SCENE`) and its Cycles reference at 1024 samples is the bench's own (bench/refs/, rendered here
 when missing: minutes). Both engines render in one Blender process after a warm-up each, Primer's ladder first, as
 the bench's ladder does; each render prints its wall seconds, its relMSE against the reference, its mean against
 the reference's and where Primer's time went; the last line interpolates Primer's seconds to Cycles' relMSE on

@@ -119,8 +119,7 @@ def real_view(results: dict) -> dict:
 
 def real_label(name: str) -> tuple:
     """(scene, integrator) of a real phase's name real-SCENE-INTEGRATOR."""
-    scene, integrator = name[len(common.REAL_PREFIX):].rsplit("-", 1)
-    return scene, integrator
+    return common.real_label(name)
 
 
 def real_table(results: dict) -> list:
@@ -318,7 +317,17 @@ def machine_lines(machine: dict) -> list:
         f"- Phase {phase} was skipped in this run; its numbers come from the run at commit {commit}"
         for phase, commit in machine.get("phase_commits", {}).items() if commit != machine["commit"]] + [
         f"- Scene {scene} was measured again alone (its ladder and Cycles', in one job) at commit {commit}"
-        for scene, commit in sorted(machine.get("scene_commits", {}).items())]
+        for scene, commit in sorted(machine.get("scene_commits", {}).items())] + real_commit_lines(machine)
+
+
+def real_commit_lines(machine: dict) -> list:
+    """Return a bullet per earlier commit whose run measured real scenes kept by `run.py --real` (the others' rows)."""
+    kept: dict = {}
+    for name, commit in machine.get("real_commits", {}).items():
+        if commit != machine.get("phase_commits", {}).get("real", machine["commit"]):
+            kept.setdefault(commit, []).append(real_label(name)[0])
+    return [f"- Real scenes {', '.join(dict.fromkeys(scenes))} were not measured in this run (`run.py --real` measured "
+            f"the others); their rows come from the run at commit {commit}" for commit, scenes in sorted(kept.items())]
 
 
 def ladder_table(results: dict) -> list:
@@ -613,7 +622,8 @@ def targets_table(results: dict) -> list:
     real = headline(real_view(results))
     if real:
         worst = max(real, key=lambda h: h["relmse"]["ratio"] if h["relmse"]["how"] != "<=" else 0.0)
-        row("Issue 34: real scenes (a quad-lit Cornell box, a textured glTF model, an HDRI still life of metals) in "
+        row("Issue 34: real scenes (a quad-lit Cornell box, a textured glTF model, an HDRI still life of metals, an "
+            "artist's studio lit by several emitters) in "
             "≤ 0.5× Cycles' time, direct light and path traced (goal 0.25×)",
             ", ".join(f"{'/'.join(real_label(h['scene']))} {'> ' if h['relmse']['how'] == '>' else ''}"
                       f"{h['relmse']['ratio']:.2f}" for h in real) + f"; worst {'/'.join(real_label(worst['scene']))}",
@@ -721,7 +731,11 @@ def report_markdown(results: dict, plots: dict) -> str:
         text += ["", "## Real scenes: direct light and path traced", "",
                  wrap("Files made by other people (docs/real_scenes.md: their sources and licences; fetched into "
                       "tools/real_scenes.py's cache, never committed), rigged as `tools/real_scenes.py compare` rigs "
-                      f"them at {common.REAL_SIZE[0]} × {common.REAL_SIZE[1]} pixels, each once with direct light "
+                      f"them at {common.REAL_SIZE[0]} × {common.REAL_SIZE[1]} pixels"
+                      + "".join(f" ({scene} at {w} × {h}, to keep its Cycles reference to minutes)"
+                                for scene, (w, h) in common.REAL_SIZES.items()
+                                if any(real_label(n)[0] == scene for n in plan.get("real_scenes", [])))
+                      + ", each once with direct light "
                       "(`max_bounces = 0`) and once path traced (the file's bounce limits in both engines). The "
                       f"reference is Cycles at {plan['reference_samples']} samples as above; Primer's ladder is "
                       f"{plan.get('real_primer_ladder')} samples (adaptive sampling off, as the rig sets it), Cycles' "

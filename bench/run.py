@@ -1,6 +1,6 @@
 """`make bench`: Primer against Cycles, speed against error, on this machine; then the report.
 
-    .venv/bin/python bench/run.py [--quick] [--skip PHASE ...]
+    .venv/bin/python bench/run.py [--quick] [--skip PHASE ...] [--real SCENE ...]
 
 Phases, in order (each Blender job in its own process, with empty Blender user folders):
   scenes     the Cycles references (cached in bench/refs/) and both engines' sample ladders
@@ -16,7 +16,9 @@ Phases, in order (each Blender job in its own process, with empty Blender user f
 Then bench/report.py writes bench/REPORT.md, the plots in docs/images/bench/ and the "## Benchmark"
 section of docs/performance.md. --quick measures a little of everything in a few minutes and writes
 its report to bench/out/quick/ instead, leaving the committed report alone. Skipped phases keep their
-measurements from bench/results/results.json (the last full run).
+measurements from bench/results/results.json (the last full run). --real SCENE ... measures only those real
+scenes (tools/real_scenes.py names, both integrators) in the real phase and keeps the other real scenes' rows
+from the last results: to add or re-measure one scene without the others' hour.
 """
 from __future__ import annotations
 
@@ -108,23 +110,34 @@ def run_scenes(plan: common.Plan) -> dict:
     return run_ladders(plan.scenes, plan.quick)
 
 
-def run_real(plan: common.Plan) -> dict:
+def run_real(plan: common.Plan, only: list = (), previous: dict = None) -> dict:
     """Rig each real scene once (bench/out/real/), then render its reference and ladders; return {"rows": [...],
-    "references": {...}, "skipped": [(name, why)]} (a scene not in tools/real_scenes.py's cache is skipped)."""
+    "references": {...}, "skipped": [(name, why)]} (a scene not in tools/real_scenes.py's cache is skipped).
+    With `only` (scene names), measure only those and take the other scenes' rows, references and skips from
+    `previous` (the last results' real phase)."""
     import real_scenes                              # tools/real_scenes.py
 
+    names = [name for name in plan.real_scenes if not only or common.real_label(name)[0] in only]
     ready, skipped = [], []
-    for name in plan.real_scenes:
+    for name in names:
         blend = common.blend_of(name)
         if not os.path.exists(blend):
-            scene, integrator = name[len(common.REAL_PREFIX):].rsplit("-", 1)
-            rigged, notes = real_scenes.rig(scene, integrator, *common.REAL_SIZE, out=blend)
+            scene, integrator = common.real_label(name)
+            rigged, notes = real_scenes.rig(scene, integrator, *common.real_size(scene), out=blend)
             if not rigged:
                 skipped.append((name, "; ".join(notes) + ": run `tools/real_scenes.py fetch` (docs/real_scenes.md)"))
                 print(f"  {name}: skipped ({skipped[-1][1]})", flush=True)
                 continue
         ready.append(name)
-    return {**run_ladders(ready, plan.quick), "skipped": skipped}
+    measured = {**run_ladders(ready, plan.quick), "skipped": skipped}
+    if not only:
+        return measured
+    kept = [name for name in plan.real_scenes if name not in names]
+    previous = previous or {}
+    return {"rows": [r for r in previous.get("rows", []) if r["scene"] in kept] + measured["rows"],
+            "references": {**{k: v for k, v in previous.get("references", {}).items() if k in kept},
+                           **measured["references"]},
+            "skipped": [s for s in previous.get("skipped", []) if s[0] in kept] + skipped}
 
 
 def run_denoise(plan: common.Plan) -> dict:
@@ -217,6 +230,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description="Primer's benchmark against Cycles.")
     parser.add_argument("--quick", action="store_true", help="a few minutes: three scenes, short ladders")
     parser.add_argument("--skip", nargs="*", default=[], choices=PHASES, help="phases to take from the last results")
+    parser.add_argument("--real", nargs="*", default=[], choices=common.REAL_SCENES, metavar="SCENE",
+                        help="the real phase measures only these scenes, the others' rows kept from the last results")
     args = parser.parse_args(argv)
     plan = common.Plan(args.quick)
     started = time.perf_counter()
@@ -229,6 +244,13 @@ def main(argv=None) -> int:
     results["machine"]["phase_commits"] = {
         phase: measured_at.get(phase, previous.get("machine", {}).get("commit", "?")) if phase in args.skip
         else results["machine"]["commit"] for phase in PHASES}
+    # The commit whose run measured each real scene (--real measures some and keeps the others' rows).
+    real_at = previous.get("machine", {}).get("real_commits", {})
+    results["machine"]["real_commits"] = {
+        name: (results["machine"]["phase_commits"]["real"] if "real" in args.skip or not args.real
+               or common.real_label(name)[0] in args.real
+               else real_at.get(name, measured_at.get("real", previous.get("machine", {}).get("commit", "?"))))
+        for name in plan.real_scenes}
     for phase in PHASES:
         if phase in args.skip:
             results[phase] = previous.get(phase, [] if phase in ("rays", "stability", "integrators") else {})
@@ -258,7 +280,7 @@ def main(argv=None) -> int:
         elif phase == "memory":
             results[phase] = run_memory(plan.quick)
         elif phase == "real":
-            results[phase] = run_real(plan)
+            results[phase] = run_real(plan, args.real, previous.get("real"))
         else:
             results[phase] = run_stability()
         results.setdefault("phase_seconds", {})[phase] = time.perf_counter() - start
