@@ -138,10 +138,10 @@ def test_a_lamp_coloured_by_its_object_info(kernels):
     assert 0.0 < random < 1.0
 
 
-def area_over_floor(strength) -> Scene:
-    """A Lambert floor under a 4 x 4 area lamp at height 1.5 facing down whose Strength is `strength`."""
-    matrix = at([0.0, 0.0, 1.5])
-    lamp = AreaLight(center=np.array([0.0, 0.0, 1.5]), axis_u=np.array([4.0, 0.0, 0.0]),
+def area_over_floor(strength, height: float = 1.5) -> Scene:
+    """A Lambert floor under a 4 x 4 area lamp at `height` facing down whose Strength is `strength`."""
+    matrix = at([0.0, 0.0, height])
+    lamp = AreaLight(center=np.array([0.0, 0.0, height]), axis_u=np.array([4.0, 0.0, 0.0]),
                      axis_v=np.array([0.0, 4.0, 0.0]), direction=np.array([0.0, 0.0, -1.0]), power=P,
                      lamp_nodes=compile_lamp(np.ones(3), strength, matrix, UV_AREA))
     scene = Scene(camera=ortho_down(height=3.0, scale=4.0), world=World(color=np.zeros(3)))
@@ -198,3 +198,67 @@ def test_the_worlds_light_samples_see_the_depths_of_the_vertex_they_light(kernel
     alone = render.render(world_through_a_sheet(more, sheet=False), settings).image[..., :3]
     np.testing.assert_allclose(alone, render.render(world_through_a_sheet(1.0, sheet=False), settings).image[..., :3],
                                rtol=1e-6)
+
+
+def one_more_transparent_depth() -> Link:
+    """Strength = 1 + Light Path's Transparent Depth."""
+    return weighted_sum([(1.0, path_output("Transparent Depth"))], 1.0)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_the_world_met_by_bsdf_rays_through_a_sheet_sees_both_crossings(kernels, integrator):
+    """The world of 1 + Transparent Depth over a floor seen through a transparent sheet, found by BSDF rays alone:
+    each ray crossed the sheet twice, once on the camera's side and once on its way up (Cycles' path_state_next counts
+    every transparent crossing), so each pixel is exactly 3 x the same render with Strength 1. The direct tracer
+    (no bounces: the ray past its limits looks on through the sheet, path.through_transparent) and the path tracer
+    (the sheet a vertex of the path) alike."""
+    settings = RenderSettings(width=6, height=6, samples=2, kernels=kernels, light_sampling="bsdf",
+                              integrator=integrator)
+    one = render.render(world_through_a_sheet(1.0), settings).image[..., :3]
+    deeper = render.render(world_through_a_sheet(one_more_transparent_depth()), settings).image[..., :3]
+    assert one.min() > 0.0
+    np.testing.assert_allclose(deeper, 3.0 * one, rtol=1e-6)
+
+
+def lamp_above_a_sheet(strength) -> Scene:
+    """A Lambert floor seen from above (the camera at height 3) through a transparent sheet at height 2, under a
+    4 x 4 area lamp at height 2.5 facing down whose Strength is `strength` (its back to the camera)."""
+    scene = area_over_floor(strength, height=2.5)
+    scene.materials.append(Material(name="sheet", nodes=[("TRANSPARENT", (1.0, 1.0, 1.0), {})]))
+    scene.add_mesh(primitives.plane(40.0, center=(0.0, 0.0, 2.0)), materials=np.array([1]), name="Sheet")
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+@pytest.mark.parametrize("sampling, factor", [("light", 2.0), ("bsdf", 3.0)])
+def test_a_lamp_met_by_bsdf_rays_through_a_sheet_sees_both_crossings(kernels, integrator, sampling, factor):
+    """An area lamp of Strength 1 + Transparent Depth above a transparent sheet over a floor seen through it: BSDF
+    rays alone meet it after crossing the sheet twice (3 x the Strength-1 render), light samples light a vertex that
+    the camera ray reached through the sheet once (2 x); by both tracers (direct: path.through_transparent)."""
+    settings = RenderSettings(width=6, height=6, samples=4, kernels=kernels, light_sampling=sampling,
+                              integrator=integrator)
+    one = render.render(lamp_above_a_sheet(1.0), settings).image[..., :3]
+    deeper = render.render(lamp_above_a_sheet(one_more_transparent_depth()), settings).image[..., :3]
+    assert (one[..., 0] > 0.0).sum() >= 30            # (BSDF rays alone: a few miss the lamp)
+    np.testing.assert_allclose(deeper, factor * one, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("limit, seen", [(3, False), (4, True)])
+def test_a_bsdf_ray_past_its_bounces_counts_its_crossings_against_the_transparent_limit(kernels, limit, seen):
+    """A Lambert floor (albedo RHO) under a white world of 1 seen through two transparent sheets, by BSDF rays alone
+    and no bounces (the direct tracer): the camera ray crosses both (2), the floor's ray both again (3, 4). With
+    Transparent Max Bounces 4 it escapes, RHO exactly; with 3 it is stopped at the second sheet (Cycles' terminate on
+    the next surface after the last crossing allowed): black."""
+    scene = Scene(camera=ortho_down(height=3.0, scale=4.0), world=World(color=np.ones(3)))
+    scene.materials.append(Material(np.full(3, RHO), "Floor"))
+    scene.materials.append(Material(name="sheet", nodes=[("TRANSPARENT", (1.0, 1.0, 1.0), {})]))
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([0]), name="Floor")
+    for z in (1.0, 2.0):
+        scene.add_mesh(primitives.plane(40.0, center=(0.0, 0.0, z)), materials=np.array([1]), name=f"Sheet {z}")
+    settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, light_sampling="bsdf",
+                              transparent_max_bounces=limit)
+    image = render.render(scene, settings).image[..., :3]
+    np.testing.assert_allclose(image, np.full(image.shape, RHO if seen else 0.0), rtol=1e-6, atol=1e-12)

@@ -252,7 +252,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         path = graph_.paths_at(paths, alive)._replace(transparent=passed[alive])
         shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, path)
         T[alive] *= shader.transparency
-        boundary = False if media is None else media.boundary[surface.material]
+        # (a volume-only boundary is no transparent bounce; an array, as ~False is -1)
+        boundary = np.zeros(len(alive), bool) if media is None else media.boundary[surface.material]
         passed[alive] += ~boundary
         if media is not None:                    # (straight through the surface: into or out of its medium)
             inside[alive] = media.crossed(inside[alive], surface.material, surface.backfacing,
