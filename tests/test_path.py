@@ -61,6 +61,26 @@ def test_russian_roulette_keeps_the_furnace_unbiased(kernels):
     assert image.mean() == pytest.approx(expected, rel=0.02)
 
 
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_russian_roulette_keeps_every_path_that_carries_a_quarter_of_the_light(kernels):
+    """Russian roulette's q = min(max(sqrt(t), 4 t), 1) (path.survival), t the path's throughput: in a furnace of
+    albedo 1/2 lit by a point light at its centre (one shadow ray at every vertex), a path carries t = 1/4 at its
+    first roulette (after 2 bounces: q = 1) and t = 1/8 at every later one (q = 1/2, the survivors' throughput back
+    to 1/4), so with Max Bounces 8 a path has 2 + (1 + 1/2 + ... + 1/2^6) vertices on average (Cycles' sqrt(t)
+    gives 2 + (1/2 + ... + 1/2^7), 1 fewer; no roulette 9), and the image is the one without roulette."""
+    from core.lights import PointLight
+    scene, settings = furnace(albedo=0.5, emission=0.0, samples=256)
+    scene.lights.append(PointLight(np.zeros(3), power=100.0, radius=0.0))
+    settings = dataclasses.replace(settings, max_bounces=8, diffuse_bounces=8, kernels=kernels)
+    played = render.render(scene, dataclasses.replace(settings, min_light_bounces=0))
+    unplayed = render.render(scene, settings)
+    paths = settings.width * settings.height * settings.samples
+    assert unplayed.stats.shadow_rays == 9 * paths
+    expected = 2.0 + sum(0.5 ** k for k in range(7))
+    assert played.stats.shadow_rays / paths == pytest.approx(expected, rel=0.015)
+    assert played.image[..., :3].mean() == pytest.approx(unplayed.image[..., :3].mean(), rel=0.01)
+
+
 def test_compiled_paths_follow_the_reference_paths():
     """A path-traced scene with every kind of light (point, sun disk, area, an emissive mesh, a world) and
     diffuse, metal, glossy and default surfaces, three bounces: the compiled path renders what the Python
@@ -68,8 +88,9 @@ def test_compiled_paths_follow_the_reference_paths():
     from test_compiled import LIGHTS, assert_same_render, compare_paths, lit_scene
     from core.lights import World
     scene = lit_scene(LIGHTS["several"])
+    # (a dark metal: paths that meet it carry less than a quarter of the light, where Russian roulette plays)
     scene.materials[1] = materials.Material(name="metal", nodes=[
-        ("PRINCIPLED", (1, 1, 1), {"metallic": 1.0, "base_color": (0.9, 0.6, 0.3), "roughness": 0.3})])
+        ("PRINCIPLED", (1, 1, 1), {"metallic": 1.0, "base_color": (0.3, 0.2, 0.1), "roughness": 0.3})])
     scene.materials.append(materials.Material(name="lamp", nodes=[
         ("EMISSION", (1, 1, 1), {"emission": (4.0, 3.0, 2.0)}), ("GLOSSY", (0.3, 0.3, 0.3), {"roughness": 0.4})]))
     scene.add_mesh(primitives.plane(0.6, center=(-1.2, 1.0, 1.5)), materials=np.array([2]))
@@ -77,6 +98,8 @@ def test_compiled_paths_follow_the_reference_paths():
     settings = RenderSettings(width=40, height=30, samples=4, integrator="path", max_bounces=3)
     compiled, reference = compare_paths(scene, settings)
     assert_same_render(compiled, reference)
+    unplayed = render.render(scene, dataclasses.replace(settings, min_light_bounces=3, kernels="compiled"))
+    assert compiled.stats.shadow_rays < unplayed.stats.shadow_rays        # (the roulette ended some paths)
 
 
 @pytest.mark.parametrize("kernels", ["numpy", "compiled"])

@@ -835,7 +835,7 @@ def noise_of(first: np.ndarray, second: np.ndarray) -> float:
 def test_russian_roulette_is_unbiased_cheaper_and_noisier(primer, tmp_path):
     """The Cornell box by path tracing, 16 samples: with Russian roulette (paths may end from the third
     vertex on, survivors count 1/q) the mean is the same as without (within 2%), fewer shadow rays are
-    traced, and the error (the render's variance, from two renders at different seeds: noise_of) is larger at
+    traced (at least 5 %: its walls' albedo keeps most paths to the fourth vertex, path.survival), and the error (the render's variance, from two renders at different seeds: noise_of) is larger at
     equal samples."""
     scene = open_scene("cornell_box")
     scene.primer.use_adaptive_sampling = False
@@ -853,7 +853,7 @@ def test_russian_roulette_is_unbiased_cheaper_and_noisier(primer, tmp_path):
     print(f"Russian roulette: relative MSE of blocks {error_rr:.3e} (without {error_all:.3e}), shadow rays "
           f"{rays_rr} ({rays_all})")
     assert with_rr[..., :3].mean() == pytest.approx(without[..., :3].mean(), rel=0.02)
-    assert rays_rr < 0.9 * rays_all
+    assert rays_rr < 0.95 * rays_all
     assert error_rr > error_all
 
 

@@ -271,7 +271,9 @@ def test_both_kernels_scatter_light_in_a_noise_fed_smoke_to_the_same_pixels(ligh
     compiled = render(scene, RenderSettings(**settings))
     assert compiled.stats.kernels == "compiled"
     assert compiled.stats.shadow_rays == reference.stats.shadow_rays
-    assert_same_tracked_pixels(reference.image, compiled.image)
+    # (rtol 1e-3: paths that reach the fourth vertex, which Russian roulette keeps while they carry a quarter of the
+    #  light, walk the smoke more often on hit points a float32 ulp apart; the same 3 values differ so with roulette off)
+    assert_same_tracked_pixels(reference.image, compiled.image, rtol=1e-3)
 
 
 def test_both_kernels_march_a_black_body_whose_temperature_a_noise_sets_to_the_same_pixels():

@@ -4,6 +4,13 @@
 
 /* VERTEX_DIMENSIONS and ROULETTE_DIMENSION come from path.py (core/native/boundary.gen.h). */
 
+/* Russian roulette's probability that a path carrying `largest` (the largest channel of its throughput, >= 0) goes
+ * on: min(max(sqrt(t), ROULETTE_KEEP t), 1), never below Cycles' min(sqrt(t), 1) (path.py survival). */
+INLINE double survival(double largest)
+{
+    return at_most(at_least(sqrt(largest), ROULETTE_KEEP * largest), 1.0);
+}
+
 /* A path's bounce limits (RenderSettings, Cycles' meaning) and where Russian roulette starts. */
 typedef struct {
     int max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, transparent_bounces, roulette_from;
@@ -273,7 +280,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         }
         if (bounces >= limits->roulette_from && !see_through && !r->walked) {   /* (a walk plays none) */
             double largest = at_least(fabs(carried[0]), at_least(fabs(carried[1]), fabs(carried[2])));
-            double q = at_most(sqrt(largest), 1.0), u[2];
+            double q = survival(largest), u[2];
             sample_2d(roulette, H->pixel[h], H->sample[h], u);
             if (!(u[0] < q)) continue;
             for (int c = 0; c < 3; c++) tp[c] = tp[c] / q;

@@ -19,8 +19,11 @@ Bounces are counted as in Cycles: after `max_bounces` bounces (and `diffuse_boun
 ones, `glossy_bounces` after glossy or mirror reflections, `transmission_bounces` after refractions) the
 last BSDF ray still brings back the light it finds, but the
 surface it hits does no more. From the third vertex on, Russian roulette ends a path with probability
-1 - q, q = min(sqrt(max throughput), 1), and divides the throughput of those that go on by q: unbiased,
-cheaper, noisier (Cycles' rule: after Min Light Bounces + 1 bounces, min_light_bounces in RenderSettings).
+1 - q and divides the throughput of those that go on by q: unbiased, cheaper, noisier (from where Cycles starts
+it: after Min Light Bounces + 1 bounces, min_light_bounces in RenderSettings). Cycles' q is min(sqrt(t), 1), t the
+largest channel of the throughput; Primer's is min(max(sqrt(t), 4 t), 1) (`survival`): never below Cycles', and 1
+while the path carries a quarter of the camera's light or more, where a path ended would cost more noise than its
+rest of the path costs time (measured in docs/performance.md).
 
 Two of Cycles' Light Paths settings trade correctness for less noise, with Cycles' meaning: the caustics
 switches (caustics_reflective, caustics_refractive) leave glossy reflection and refraction out of the
@@ -83,6 +86,16 @@ from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_VOLUME_SCATTER, HOLDOUT
 VOLUME_BOUNDS_MAX = shadows.VOLUME_BOUNDS_MAX
 # The dimension of Russian roulette's number at a vertex (before the shift).
 ROULETTE_DIMENSION = schema.constant("ROULETTE_DIMENSION", 6, "Russian roulette's dimension at a vertex")
+# Russian roulette keeps a path with at least ROULETTE_KEEP x its throughput (at most 1; never less than Cycles' sqrt).
+ROULETTE_KEEP = schema.constant("ROULETTE_KEEP", 4.0, "Russian roulette's q is at least this times the throughput")
+
+
+def survival(carried: np.ndarray) -> np.ndarray:
+    """Russian roulette's probability q (k,) float64 that a path carrying `carried` (k, 3) float64 goes on:
+    min(max(sqrt(t), ROULETTE_KEEP t), 1), t = max |carried| over the channels. Cycles' q is min(sqrt(t), 1); this
+    one is never below it and keeps every path that carries 1 / ROULETTE_KEEP of the light or more."""
+    t = np.abs(carried).max(axis=1)
+    return np.minimum(np.maximum(np.sqrt(t), ROULETTE_KEEP * t), 1.0)
 
 
 def roulette_from(settings) -> int:
@@ -572,7 +585,7 @@ class PathTracing(Integrator):
                 # (q from the throughput before the media along the ray: a ray into fog that lets nothing through to
                 #  its end still gathers the light scattered along it, as Cycles decides before the volume)
                 carried = next_throughput if ray.attenuation is None else throughput[ray.rows] * ray.weight
-                q = np.where(played, np.minimum(np.sqrt(np.abs(carried).max(axis=1)), 1.0), 1.0)
+                q = np.where(played, survival(carried), 1.0)
                 u = sampling.sample_2d(s.seed, pixel[owner[ray.rows]], sample[owner[ray.rows]],
                                        dimension=ROULETTE_DIMENSION + (vertex + 1) * VERTEX_DIMENSIONS)[:, 0]
                 survived = ~played | (u < q)

@@ -546,7 +546,7 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
         for (int c = 0; c < 3; c++) carried[c] = H->throughput[3 * h + c] * r->weight[c];
         if (bounces >= limits->roulette_from && !see_through && !r->walked) {     /* (a walk plays none) */
             double largest = at_least(fabs(carried[0]), at_least(fabs(carried[1]), fabs(carried[2]))), u[2];
-            q = at_most(sqrt(largest), 1.0);
+            q = survival(largest);
             sample_2d(roulette, H->pixel[h], H->sample[h], u);
             if (!(u[0] < q)) continue;
         }

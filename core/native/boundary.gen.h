@@ -73,6 +73,8 @@
 #define AOV_CHANNELS_MAX 64
 /* Russian roulette's dimension at a vertex (core.integrators.path) */
 #define ROULETTE_DIMENSION 6
+/* Russian roulette's q is at least this times the throughput (core.integrators.path) */
+#define ROULETTE_KEEP 4.0
 /* the most surfaces a camera ray's walk for its media passes (core.integrators.rays) */
 #define CAMERA_MEDIA_HITS 256
 /* the most surfaces with a medium the camera's walk counts (core.integrators.rays) */
