@@ -360,6 +360,33 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             store_sample(b, k, &ls);
             b->hidden[k] = 0;
         }
+    } else if (kind == LIGHT_EMITTERS && lone_quad(ctx->emitters) >= 0) {
+        /* One quad lamp and nothing else to pick (Cornell boxes): its spherical rectangle in SIMD lanes, the lanes it
+         * does not suit by sample_emitters itself; the same numbers either way. */
+        const EmitterTables *e = ctx->emitters;
+        int64_t i = lone_quad(e);
+        uint8_t slow[BLOCK];
+        quad_lamp_lanes(e, i, b->n, b->P, b->u, b->L, b->distance, b->strength, b->pdf, b->position, slow);
+        int hidden = e->hidden != NULL ? (int)e->hidden[i] : 0;
+        int32_t group = e->group != NULL ? e->group[i] : light->group;
+        for (int c = 0; c < 3; c++)
+            for (int64_t k = 0; k < b->n; k++) {
+                b->light_normal[c][k] = e->normal[3 * i + c];
+                b->color[c][k] = e->emission[3 * i + c];
+            }
+        for (int64_t k = 0; k < b->n; k++) {
+            b->hidden[k] = hidden;
+            b->emitter[k] = i;
+            b->group[k] = group;
+        }
+        for (int64_t k = 0; k < b->n; k++) {
+            if (!slow[k]) continue;
+            double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[2] = {b->u[0][k], b->u[1][k]};
+            LightSample ls;
+            sample_emitters(e, P, NULL, u, b->time[k], &ls);     /* (one leaf: no normal weighs the pick) */
+            store_sample(b, k, &ls);
+        }
+        return;
     } else {
         for (int64_t k = 0; k < b->n; k++) {
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[2] = {b->u[0][k], b->u[1][k]};

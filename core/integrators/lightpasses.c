@@ -26,6 +26,22 @@ INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *
     double total[3] = {0.0, 0.0, 0.0};
     int kinds = 0;                      /* (bit p: some closure of kind p added to shares[p]) */
     for (int p = 0; p < PASS_KINDS; p++) shares[p][0] = shares[p][1] = shares[p][2] = 0.0;
+    if (hidden == 0 && lambert_alone(sd)) {
+        /* One Lambert on the hit's normal (bsdf.c lambert_alone): its kind's row as the loop below makes it, and the
+         * one-kind rule's 1 or 0 where it applies (else the loop's way). */
+        const Closure *c = sd->c;
+        int p = pass_kind(c, wo, wi);
+        if (p >= 0) {
+            double value[3], pdf, row[3];
+            lambert_eval(c, wo, wi, value, &pdf);
+            for (int j = 0; j < 3; j++) row[j] = 0.0 + c->weight[j] * value[j];
+            if (row[0] >= 0.0 && row[1] >= 0.0 && row[2] >= 0.0 && row[0] < INFINITY && row[1] < INFINITY
+                && row[2] < INFINITY) {
+                for (int j = 0; j < 3; j++) shares[p][j] = row[j] != 0.0 ? 1.0 : 0.0;
+                return;
+            }
+        }
+    }
     for (int k = 0; k < sd->n; k++) {
         const Closure *c = sd->c + k;
         int p = pass_kind(c, wo, wi);

@@ -560,6 +560,112 @@ NOINLINE static void sample_emitters(const EmitterTables *e, const double *P, co
     }
 }
 
+/* The quad lamp whose emitter every light sample takes, where the light tree is one leaf (the root) holding a still quad
+ * lamp with its constants made once (EmitterTables.rect_frame): its lead emitter's index, else -1 (sample_emitters
+ * walks). Its pick probability is then 1 and the sample's number is the walk's own (the walk takes no step). */
+INLINE int64_t lone_quad(const EmitterTables *e)
+{
+    if (e == NULL || e->nodes[TREE_RIGHT] >= 0.0 || e->partner == NULL || e->rect_frame == NULL || e->rect == NULL)
+        return -1;
+    int64_t i = -1 - (int64_t)e->nodes[TREE_LEFT];
+    if (e->partner[i] < 0 || (e->mesh != NULL && e->geometry != NULL && e->mesh[i] >= 0)) return -1;
+    return i;
+}
+
+/* sample_emitters for n points P (3, BLOCK columns) with numbers u (2, BLOCK) on lone_quad's lamp i, as loops over the
+ * lanes with no branch (SIMD lanes where inlined into a SIMD_CLONES loop; only atan2 and sin/cos run a lane at a time):
+ * the same operations in the same order, so the same numbers, for every lane that samples the spherical rectangle
+ * from in front of or behind its plane (not on it: z0 < 0 after the frame's flip). Into L, distance, strength, pdf and
+ * position; `slow` 1 marks the other lanes (far enough for area sampling, or on the lamp's plane), which the caller
+ * samples with sample_emitters itself. */
+INLINE void quad_lamp_lanes(const EmitterTables *e, int64_t i, int64_t n, double P[3][BLOCK], double u[2][BLOCK],
+                            double L[3][BLOCK], double *distance, double *strength, double *pdf,
+                            double position[3][BLOCK], uint8_t *slow)
+{
+    const double *R = e->rect + 9 * i, *F = e->rect_frame + 12 * i;
+    double normal[3] = {e->normal[3 * i], e->normal[3 * i + 1], e->normal[3 * i + 2]};
+    double X[3] = {F[0], F[1], F[2]}, Y[3] = {F[3], F[4], F[5]}, Z[3] = {F[6], F[7], F[8]};
+    double lx = F[9], ly = F[10], area = F[11], corner[3] = {R[0], R[1], R[2]};
+    double diagonal[3] = {R[3] + R[6], R[4] + R[7], R[5] + R[8]};
+    double diagonal2 = dot3(diagonal, diagonal);
+    int sides = e->sides[i];
+    double ya[BLOCK], xa[BLOCK], re_b[BLOCK], im_b[BLOCK], n0[BLOCK], n2[BLOCK], ext[5][BLOCK], flip[BLOCK];
+    double allowed[BLOCK], S[BLOCK], sin_a[BLOCK], cos_a[BLOCK];
+    /* 1. The frame (rectangle_frame) up to atan2's arguments, and which lanes take this way. */
+    for (int64_t k = 0; k < n; k++) {
+        double d[3] = {corner[0] - P[0][k], corner[1] - P[1][k], corner[2] - P[2][k]};
+        double height = dot3(normal, d);
+        int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;
+        allowed[k] = (sides & side) != 0 ? 1.0 : 0.0;
+        double delta = height / (2.0 * area);
+        int spherical = diagonal2 > delta * delta;          /* (rectangle_spherical) */
+        double z0 = dot3(d, Z);
+        int flipped = z0 > 0.0;
+        z0 = flipped ? -z0 : z0;
+        flip[k] = flipped ? -1.0 : 1.0;
+        double x0 = dot3(d, X), y0 = dot3(d, Y);
+        double x1 = x0 + lx, y1 = y0 + ly;
+        ext[0][k] = x0; ext[1][k] = x1; ext[2][k] = y0; ext[3][k] = y1; ext[4][k] = z0;
+        double raw[4] = {-y0, x1, y1, -x0}, rho[4], nz[4], sin_g[4], cos_g[4];
+        for (int j = 0; j < 4; j++) {
+            rho[j] = sqrt(raw[j] * raw[j] + z0 * z0);
+            nz[j] = raw[j] / rho[j];
+        }
+        for (int j = 0; j < 4; j++) {
+            int next = (j + 1) & 3;
+            sin_g[j] = -nz[j] * nz[next];
+            cos_g[j] = -z0 * sqrt(raw[j] * raw[j] + raw[next] * raw[next] + z0 * z0) / (rho[j] * rho[next]);
+        }
+        double re_A = cos_g[0] * cos_g[1] - sin_g[0] * sin_g[1], im_A = cos_g[0] * sin_g[1] + sin_g[0] * cos_g[1];
+        double re_B = cos_g[2] * cos_g[3] - sin_g[2] * sin_g[3], im_B = cos_g[2] * sin_g[3] + sin_g[2] * cos_g[3];
+        ya[k] = -(re_A * im_B + im_A * re_B);
+        xa[k] = -(re_A * re_B - im_A * im_B);
+        re_b[k] = re_B; im_b[k] = im_B; n0[k] = nz[0]; n2[k] = nz[2];
+        slow[k] = (uint8_t)(!spherical | !(z0 < 0.0));
+    }
+    /* 2. The solid angle and the turn of its first number, a lane at a time (libm). */
+    for (int64_t k = 0; k < n; k++) {
+        double s = PI - atan2(ya[k], xa[k]);
+        S[k] = s == s ? s : 0.0;
+        sin_a[k] = sin(u[0][k] * S[k]);
+        cos_a[k] = cos(u[0][k] * S[k]);
+    }
+    /* 3. The direction (spherical_rectangle_sample_of's steps 1 and 2), its pdf and the sample. */
+    for (int64_t k = 0; k < n; k++) {
+        double x0 = ext[0][k], x1 = ext[1][k], y0 = ext[2][k], y1 = ext[3][k], z0 = ext[4][k];
+        double z[3] = {Z[0] * flip[k], Z[1] * flip[k], Z[2] * flip[k]};
+        double b0 = n0[k], b1 = n2[k];
+        double sin_au = sin_a[k] * re_b[k] + cos_a[k] * im_b[k], cos_au = cos_a[k] * re_b[k] - sin_a[k] * im_b[k];
+        double fu = sin_au != 0.0 ? (cos_au * b0 + b1) / sin_au : 0.0;
+        double cu = copysign(1.0 / sqrt(fu * fu + b0 * b0), fu);
+        cu = cu < -1.0 ? -1.0 : (cu > 1.0 ? 1.0 : cu);
+        double xu = -(cu * z0) / at_least(sqrt(at_least(1.0 - cu * cu, 0.0)), 1e-300);
+        xu = xu == xu ? xu : 0.0;
+        xu = xu < x0 ? x0 : (xu > x1 ? x1 : xu);
+        double d2 = xu * xu + z0 * z0;
+        double h0 = y0 / sqrt(d2 + y0 * y0), h1 = y1 / sqrt(d2 + y1 * y1);
+        double hv = h0 + u[1][k] * (h1 - h0);
+        double yv = hv * hv < 1.0 - 1e-12 ? hv * sqrt(d2 / (1.0 - hv * hv)) : y1;
+        double w[3];
+        for (int c = 0; c < 3; c++) w[c] = xu * X[c] + yv * Y[c] + z0 * z[c];
+        double length = sqrt(dot3(w, w));
+        double p = S[k] > 0.0 ? 1.0 / S[k] : 0.0;
+        int ok = (fabs(length) < INFINITY) & (length > 0.0) & (fabs(p) < INFINITY);     /* (isfinite) */
+        double t = ok ? length : 0.0, pdf_direction = ok ? p : 0.0;
+        double dir[3];
+        for (int c = 0; c < 3; c++) dir[c] = ok ? w[c] / length : 0.0;
+        double full = 1.0 * pdf_direction;                   /* (the pick's probability, 1, times it) */
+        int kept = (allowed[k] != 0.0) & (full > 0.0) & (fabs(full) < INFINITY);
+        strength[k] = kept ? 1.0 / full : 0.0;
+        pdf[k] = kept ? full : 0.0;
+        distance[k] = t;
+        for (int c = 0; c < 3; c++) {
+            L[c][k] = dir[c];
+            position[c][k] = P[c][k] + dir[c] * t;
+        }
+    }
+}
+
 /* The table's entries (lights.gen.c): MeshEmitters.sample (moving emitters where they are at the frame: direct.c's
  * light samples call sample_emitters with their path's time); rays meet emitters as the surfaces they hit, not here. */
 INLINE void emitters_sample(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,

@@ -138,12 +138,55 @@ INLINE int sampled_across_face(const Closure *c, const double *Ng, const double 
     return (dot3(Ng, wi) > 0.0) != (dot3(c->N, wi) > 0.0);
 }
 
+/* Whether a hit's closures are one Lambert on the hit's own normal sd->N with no Shading Offset: shader_sample and
+ * kind_shares then take lambert_shader_sample's and kind_shares' short ways (the same operations, so the same numbers). */
+INLINE int lambert_alone(const ShaderResult *sd)
+{
+    const Closure *c = sd->c;
+    return sd->n == 1 && c->kind == BSDF_LAMBERT && sd->terminator <= 1.0 && c->N[0] == sd->N[0]
+           && c->N[1] == sd->N[1] && c->N[2] == sd->N[2]
+           && !bsdf_is(c->kind, BSDF_FLAG_SINGULAR | BSDF_FLAG_SUBSURFACE | BSDF_FLAG_OWN_WEIGHT);
+}
+
+/* shader_sample for a lambert_alone hit, step by step as the loops there run for one closure (0.0 + x where they
+ * start a sum at 0, closure_shadowing 1 on the closure's own normal): no loops, no table switch. */
+INLINE void lambert_shader_sample(const ShaderResult *sd, const double *wo, const double *u, double pick,
+                                  const double *Ng, ClosureSample *out)
+{
+    const Closure *c = sd->c;
+    double total = 0.0 + c->sample_weight;
+    int chosen = total <= pick * total ? 1 : 0;         /* (the running sum after the one closure is the total) */
+    out->delta = 0;
+    out->kind = -1;
+    out->slot = chosen;
+    out->pdf = 0.0;
+    out->weight[0] = out->weight[1] = out->weight[2] = 0.0;
+    out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
+    if (chosen >= 1) return;
+    double u3[3] = {u[0], u[1], 0.5};                   /* (Lambert reads no third number) */
+    BsdfSample s;
+    lambert_sample(c, wo, u3, &s);
+    for (int j = 0; j < 3; j++) out->wi[j] = s.wi[j];
+    if (Ng != NULL && s.pdf > 0.0 && sampled_across_face(c, Ng, s.wi)) return;
+    out->kind = c->kind;
+    if (!(s.pdf > 0.0)) { out->kind = -1; return; }
+    double value[3], pdf_e, f_cos[3];
+    lambert_eval(c, wo, out->wi, value, &pdf_e);
+    for (int j = 0; j < 3; j++) f_cos[j] = 0.0 + c->weight[j] * value[j];
+    double numerator = 0.0 + c->sample_weight * pdf_e;
+    double pdf = total > 0.0 ? numerator / total : 0.0;
+    for (int j = 0; j < 3; j++) out->weight[j] = pdf > 0.0 ? f_cos[j] / pdf : 0.0;
+    out->pdf = pdf;
+    if (!(pdf > 0.0)) out->kind = -1;
+}
+
 /* closures.sample_closures for one hit: pick a closure by sampling weight, sample it; unless a delta,
  * weight and pdf from all closures at that direction (an OWN_WEIGHT closure its own sampled share of them).
  * Ng: the hit's face normal (facing the viewer), or NULL: a direction sampled across the face is no sample. */
 INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double *u, double pick, const double *Ng,
                           ClosureSample *out)
 {
+    if (lambert_alone(sd)) { lambert_shader_sample(sd, wo, u, pick, Ng, out); return; }
     double total = 0.0, running = 0.0;
     for (int k = 0; k < sd->n; k++) total += sd->c[k].sample_weight;
     int chosen = 0;
