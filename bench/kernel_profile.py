@@ -3,11 +3,11 @@ with core.render outside Blender, so that callgrind counts the kernels and not B
 
     .venv/bin/python bench/kernel_profile.py dump cornell_box path /tmp/cb_path.pkl        (rigs at 64 x 48)
     valgrind --tool=callgrind --toggle-collect='*render_chunk*' \\
-        .venv/bin/python bench/kernel_profile.py render /tmp/cb_path.pkl 8 path [OUT.npy]
+        .venv/bin/python bench/kernel_profile.py render /tmp/cb_path.pkl 8 path [OUT.npy [THREADS]]
 
 `dump` rigs the cached scene as tools/real_scenes.py does (into the pickle's folder), renders it once in Primer
 with one thread and keeps the (Scene, RenderSettings) that the add-on hands core.render. `render` renders them with
-SAMPLES samples, one thread, the integrator given (the passes as rigged), prints the times and the mean, and saves the
+SAMPLES samples, one thread (or THREADS), the integrator given (the passes as rigged), prints the times and the mean, and saves the
 image and every pass flattened into OUT.npy (to compare builds bit for bit). The pickle holds Primer's classes: it is
 stale once their fields change; dump it again then.
 """
@@ -61,12 +61,13 @@ class _Unpickler(pickle.Unpickler):
         return getattr(importlib.import_module(module), name)
 
 
-def render(path: str, samples: int, integrator: str, out: str = "") -> None:
-    """Render the pickled scene with `samples` samples, one thread; print the times; save image and passes to out."""
+def render(path: str, samples: int, integrator: str, out: str = "", threads: int = 1) -> None:
+    """Render the pickled scene with `samples` samples on `threads` threads; print the times; save image and passes
+    to out (a .npy, to compare runs bit for bit)."""
     from core import render as core_render
     with open(path, "rb") as handle:
         scene, settings = _Unpickler(handle).load()
-    settings = dataclasses.replace(settings, samples=samples, integrator=integrator, threads=1)
+    settings = dataclasses.replace(settings, samples=samples, integrator=integrator, threads=threads)
     start = time.perf_counter()
     result = core_render.render(scene, settings)
     s = result.stats
@@ -82,6 +83,7 @@ if __name__ == "__main__":
     if len(sys.argv) >= 5 and sys.argv[1] == "dump":
         dump(sys.argv[2], sys.argv[3], sys.argv[4])
     elif len(sys.argv) >= 5 and sys.argv[1] == "render":
-        render(sys.argv[2], int(sys.argv[3]), sys.argv[4], sys.argv[5] if len(sys.argv) > 5 else "")
+        render(sys.argv[2], int(sys.argv[3]), sys.argv[4], sys.argv[5] if len(sys.argv) > 5 else "",
+               int(sys.argv[6]) if len(sys.argv) > 6 else 1)
     else:
         raise SystemExit(__doc__)

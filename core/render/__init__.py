@@ -15,7 +15,9 @@ come here; what differs between them is settings, not code. For a render:
 4. the film's image: each pixel's mean over its samples (a 1-pixel box filter, like Cycles' "Box").
 
 Chunks write to disjoint pixels, so threads need no locks; Embree, numpy and the C code release the
-GIL, so large passes run on every core. Memory stays bounded by the chunk size, whatever the image
+GIL, so large passes run on every core. Nothing depends on the schedule (random numbers hash seed, pixel
+and sample; each pixel's sums are added in one order; nothing is filled lazily by the first thread), so a
+render gives the same bits on any number of threads (docs/architecture.md, "Threads"). Memory stays bounded by the chunk size, whatever the image
 size, and the temporaries come from the heap (core/memory.py).
 
 The render part sits above every part it drives: beside this loop are its validation (validate.py, what
