@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from core.lights import MeshEmitters
-from core.lights.light_tree import CYCLES, LEFT, POWER, RIGHT, UPPER, importance
+from core.lights.light_tree import CENTRE, CYCLES, DIAGONAL, HALF, LEFT, POWER, RIGHT, UPPER, importance
 from core.native import library
 
 
@@ -62,6 +62,17 @@ def test_every_node_bounds_its_triangles_and_their_orientations():
                 node = int(row[RIGHT] if (tree.path[i] >> level) & 1 else row[LEFT])
         assert row[RIGHT] == -1 and -1 - row[LEFT] == i
     np.testing.assert_allclose(tree.nodes[:, 11], energy, rtol=1e-12)
+
+
+def test_every_nodes_centre_and_diagonal_are_its_boxs():
+    """The centre, diagonal and half-diagonal length each node row carries for the importance (made once at the
+    build) are its box's: (lo + hi) / 2, hi - lo and |hi - lo| / 2, bit for bit as the importance made them per step."""
+    nodes = scattered_emitters(64, 23).tree.nodes
+    lo, hi = nodes[:, 0:3], nodes[:, 3:6]
+    assert (nodes[:, CENTRE:CENTRE + 3] == 0.5 * (lo + hi)).all()
+    assert (nodes[:, DIAGONAL:DIAGONAL + 3] == hi - lo).all()
+    np.testing.assert_allclose(nodes[:, HALF], 0.5 * np.linalg.norm(hi - lo, axis=1), rtol=1e-15)
+    assert (nodes[:, HALF] > 0.0).all() and (nodes[:, HALF] >= 0.5 * np.abs(hi - lo).max(axis=1)).all()
 
 
 @pytest.mark.parametrize("rule", [CYCLES, UPPER, POWER])

@@ -21,7 +21,7 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 }
 
 /* light_tree.py: the tree's node rows (NODE_FIELDS doubles each). */
-#define TREE_FIELDS 19
+#define TREE_FIELDS 26
 #define TREE_AXIS 6
 #define TREE_ENERGY 11
 #define TREE_LEFT 12
@@ -31,70 +31,83 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 #define TREE_COS_E 16
 #define TREE_COS_EO 17
 #define TREE_TWINS 18
+#define TREE_CENTRE 19
+#define TREE_DIAGONAL 22
+#define TREE_HALF 25
 /* light_tree.CLAMP: the upper bound's distance is at least this share of the node's diagonal. */
 #define TREE_CLAMP 0.25
 /* light_tree.HORIZON: how far above P's tangent plane a box must lie, a share of its distance and size. */
 #define TREE_HORIZON 1e-6
 
-/* light_tree.importance for one node row seen from P with normal N (zero: unknown): the upper and lower bounds
- * of what it sends P, energy x the cosine bounds at the receiver and the emitter / distance^2 (Cycles'
- * light_tree_importance); the upper 0 only where nothing of it lights P, the lower 0 wherever some may not
- * (lower NULL: the upper bound alone). In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi]. */
-INLINE void light_tree_importance(const double *node, const double *P, const double *N, double *upper,
-                                  double *lower)
+/* A shading point as the tree's walk sees it: P, N (zero: unknown), and what every node's importance would otherwise
+ * make again from N alone (|N| per axis, whether N is known), made once per walk. */
+typedef struct {
+    const double *P, *N;
+    double N_abs[3];
+    int known_normal;
+} TreeReceiver;
+
+/* The walk's receiver for P (3,) and N (3,), zero: unknown. */
+INLINE TreeReceiver tree_receiver(const double *P, const double *N)
 {
-    const double *lo = node, *hi = node + 3, *axis = node + TREE_AXIS;
-    double v[3], diagonal[3], N_abs[3];
-    int inside_box = 1;
-    for (int c = 0; c < 3; c++) {
-        v[c] = 0.5 * (lo[c] + hi[c]) - P[c];
-        diagonal[c] = hi[c] - lo[c];
-        N_abs[c] = fabs(N[c]);
-        inside_box &= (P[c] >= lo[c]) & (P[c] <= hi[c]);
-    }
+    TreeReceiver r = {P, N, {fabs(N[0]), fabs(N[1]), fabs(N[2])}, dot3(N, N) > 0.0};
+    return r;
+}
+
+/* light_tree.importance for one node row seen from receiver r (P with normal N, zero: unknown): the upper and
+ * lower bounds of what it sends P, energy x the cosine bounds at the receiver and the emitter / distance^2 (Cycles'
+ * light_tree_importance); the upper 0 only where nothing of it lights P, the lower 0 wherever some may not
+ * (lower NULL: the upper bound alone, and none of the lower bound's work: pass a literal NULL, so that the inlined
+ * copy drops it). In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi]. The box's centre,
+ * diagonal and half its length come with the row (light_tree.with_cosines, the same numbers as made here before). */
+INLINE void light_tree_importance(const double *node, const TreeReceiver *r, double *upper, double *lower)
+{
+    const double *P = r->P, *N = r->N;
+    const double *lo = node, *hi = node + 3, *axis = node + TREE_AXIS, *centre = node + TREE_CENTRE;
+    const double *diagonal = node + TREE_DIAGONAL;
+    double v[3] = {centre[0] - P[0], centre[1] - P[1], centre[2] - P[2]};
     *upper = 0.0;
     if (lower != NULL) *lower = 0.0;
     double d = sqrt(dot3(v, v));
-    double half = 0.5 * sqrt(dot3(diagonal, diagonal));
+    double half = node[TREE_HALF];
     /* Nothing where the whole box lies on or below P's tangent plane (above it by no more than light_tree.HORIZON of
      * its distance and size: coplanar to rounding). */
-    int known_normal = dot3(N, N) > 0.0;
-    if (known_normal && !(dot3(N, v) + 0.5 * dot3(N_abs, diagonal) > TREE_HORIZON * (d + half))) return;
+    int known_normal = r->known_normal;
+    if (known_normal && !(dot3(N, v) + 0.5 * dot3(r->N_abs, diagonal) > TREE_HORIZON * (d + half))) return;
     double distance = at_least(d, TREE_CLAMP * 2.0 * half);
     double scale = node[TREE_ENERGY] / (distance * distance);
     *upper = scale;
+    int inside_box = 1;
+    for (int c = 0; c < 3; c++) inside_box &= (P[c] >= lo[c]) & (P[c] <= hi[c]);
     if (inside_box || d <= 0.0) return;
     /* theta_u: the half-angle around the direction w to the centre that holds the box's corners (cos^2
      * of each corner's angle, all of them in front, else the cone passes a hemisphere: every direction). */
     double w[3] = {v[0] / d, v[1] / d, v[2] / d};
     /* Each corner's offset from P takes lo[c] - P[c] or hi[c] - P[c] on each axis, so its terms of w . offset and
      * |offset|^2 are two products per axis, made once: the same numbers as corner by corner, summed in dot3's
-     * order, with no branch until every corner is known to be in front. */
-    double along_of[2][3], square_of[2][3];
+     * order. A rounded sum never decreases when a term grows, so the corner with each axis' lesser term has the
+     * least w . offset of the eight: all are in front exactly where it is (one test, before the eight sums). */
+    double along_of[2][3], square_of[2][3], least_of[3];
     for (int c = 0; c < 3; c++) {
         double near = lo[c] - P[c], far = hi[c] - P[c];
         along_of[0][c] = w[c] * near;
         along_of[1][c] = w[c] * far;
         square_of[0][c] = near * near;
         square_of[1][c] = far * far;
+        least_of[c] = along_of[0][c] < along_of[1][c] ? along_of[0][c] : along_of[1][c];
     }
-    double along[8], length2[8];
-    int in_front = 1;
-    for (int corner = 0; corner < 8; corner++) {
-        int x = corner & 1, y = (corner >> 1) & 1, z = (corner >> 2) & 1;
-        along[corner] = along_of[x][0] + along_of[y][1] + along_of[z][2];
-        length2[corner] = square_of[x][0] + square_of[y][1] + square_of[z][2];
-        in_front &= along[corner] > 0.0;
-    }
-    if (!in_front) return;
+    if (!(least_of[0] + least_of[1] + least_of[2] > 0.0)) return;
     /* (The smallest along^2 / length^2 kept as a fraction, compared by cross-multiplying: one division, not 8.) */
     double least_along2 = 1.0, least_length2 = 1.0, farthest2 = 0.0;
     for (int corner = 0; corner < 8; corner++) {
-        double along2 = along[corner] * along[corner];
-        int less = along2 * least_length2 < least_along2 * length2[corner];
+        int x = corner & 1, y = (corner >> 1) & 1, z = (corner >> 2) & 1;
+        double along = along_of[x][0] + along_of[y][1] + along_of[z][2];
+        double length2 = square_of[x][0] + square_of[y][1] + square_of[z][2];
+        double along2 = along * along;
+        int less = along2 * least_length2 < least_along2 * length2;
         least_along2 = less ? along2 : least_along2;
-        least_length2 = less ? length2[corner] : least_length2;
-        farthest2 = at_least(farthest2, length2[corner]);
+        least_length2 = less ? length2 : least_length2;
+        if (lower != NULL) farthest2 = at_least(farthest2, length2);
     }
     double cos2_u = least_along2 / least_length2;
     double cos_u = sqrt(cos2_u < 1.0 ? cos2_u : 1.0), sin_u = sqrt(at_least(1.0 - cos2_u, 0.0));
@@ -104,16 +117,21 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
     if (known_normal) {
         double cos_i = dot3(N, w), sin_i = sqrt(at_least(1.0 - cos_i * cos_i, 0.0));
         if (!(cos_i >= cos_u)) cos_incidence = at_least(cos_i * cos_u + sin_i * sin_u, 0.0);
-        cos_incidence_least = at_least(cos_i * cos_u - sin_i * sin_u, 0.0);
+        if (lower != NULL) cos_incidence_least = at_least(cos_i * cos_u - sin_i * sin_u, 0.0);
     }
-    /* The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0. The lower
-     * bound: cos(theta + theta_u + theta_o) where theta + theta_u <= theta_e - theta_o (theta, theta_u <= pi / 2). */
+    /* The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0 (1 where
+     * theta <= theta_u or theta - theta_u <= theta_o, its other terms then unused). The lower bound:
+     * cos(theta + theta_u + theta_o) where theta + theta_u <= theta_e - theta_o (theta, theta_u <= pi / 2). */
     double cos_t = -dot3(axis, w), sin_t = sqrt(at_least(1.0 - cos_t * cos_t, 0.0));
-    double cos_1 = cos_t * cos_u + sin_t * sin_u, sin_1 = at_least(sin_t * cos_u - cos_t * sin_u, 0.0);
-    double cos_2 = cos_1 * node[TREE_COS_O] + sin_1 * node[TREE_SIN_O];
     double cos_outgoing = 1.0;
-    if (!(cos_t >= cos_u) && !(cos_1 >= node[TREE_COS_O]))
-        cos_outgoing = cos_2 > node[TREE_COS_E] ? at_least(cos_2, 0.0) : 0.0;
+    if (!(cos_t >= cos_u)) {
+        double cos_1 = cos_t * cos_u + sin_t * sin_u;
+        if (!(cos_1 >= node[TREE_COS_O])) {
+            double sin_1 = at_least(sin_t * cos_u - cos_t * sin_u, 0.0);
+            double cos_2 = cos_1 * node[TREE_COS_O] + sin_1 * node[TREE_SIN_O];
+            cos_outgoing = cos_2 > node[TREE_COS_E] ? at_least(cos_2, 0.0) : 0.0;
+        }
+    }
     *upper = scale * (cos_incidence * cos_outgoing);
     if (lower == NULL) return;
     double cos_3 = cos_t * cos_u - sin_t * sin_u, sin_3 = sin_t * cos_u + cos_t * sin_u;
@@ -132,7 +150,7 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
 /* LightTree.branch_left: the probability of the inner node's left child, its share of the upper importance bounds
  * (TREE_UPPER, the renders'), or the mean of that and its share of the lower bounds (TREE_CYCLES, Cycles'
  * get_left_probability); by power where both children's upper bounds are 0, or TREE_POWER. */
-INLINE double light_tree_branch_left(const EmitterTables *e, const double *node, const double *P, const double *N)
+INLINE double light_tree_branch_left(const EmitterTables *e, const double *node, const TreeReceiver *r)
 {
     const double *left = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
     const double *right = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
@@ -143,8 +161,13 @@ INLINE double light_tree_branch_left(const EmitterTables *e, const double *node,
     if (node[TREE_TWINS] != 0.0) return 0.5;
     double upper_left, lower_left = 0.0, upper_right, lower_right = 0.0;
     int cycles = e->rule == TREE_CYCLES;
-    light_tree_importance(left, P, N, &upper_left, cycles ? &lower_left : NULL);
-    light_tree_importance(right, P, N, &upper_right, cycles ? &lower_right : NULL);
+    if (cycles) {
+        light_tree_importance(left, r, &upper_left, &lower_left);
+        light_tree_importance(right, r, &upper_right, &lower_right);
+    } else {    /* (the renders': the upper bounds alone, their inlined copies without the lower bounds' work) */
+        light_tree_importance(left, r, &upper_left, NULL);
+        light_tree_importance(right, r, &upper_right, NULL);
+    }
     double upper = upper_left + upper_right, lower = lower_left + lower_right;
     if (!(upper > 0.0)) return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
     double by_upper = upper_left / upper;
@@ -159,9 +182,10 @@ INLINE double light_tree_branch_left(const EmitterTables *e, const double *node,
 INLINE int64_t emitter_pick(const EmitterTables *e, const double *P, const double *N, double *u, double *probability)
 {
     const double *node = e->nodes;
+    TreeReceiver r = tree_receiver(P, N);
     double p = 1.0, x = *u;
     while (node[TREE_RIGHT] >= 0.0) {
-        double p_left = light_tree_branch_left(e, node, P, N);
+        double p_left = light_tree_branch_left(e, node, &r);
         if (x < p_left) {
             p *= p_left;
             x = x / p_left;
@@ -184,10 +208,11 @@ INLINE int64_t emitter_pick(const EmitterTables *e, const double *P, const doubl
 INLINE double emitter_pick_probability(const EmitterTables *e, int64_t i, const double *P, const double *N)
 {
     const double *node = e->nodes;
+    TreeReceiver r = tree_receiver(P, N);
     double p = 1.0;
     int64_t path = e->path[i];
     for (int64_t level = 0; level < e->depth[i]; level++) {
-        double p_left = light_tree_branch_left(e, node, P, N);
+        double p_left = light_tree_branch_left(e, node, &r);
         if ((path >> level) & 1) {
             p *= 1.0 - p_left;
             node = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];

@@ -54,8 +54,10 @@ measured, and a render of the bench room 12 times noisier (docs/performance.md, 
 Leaves hold one triangle each. The tree is flat arrays, the same for Python and C (emitters.c):
 nodes (k, NODE_FIELDS) float64, rows [lo (3), hi (3), axis (3), theta_o, theta_e, energy, left, right,
 cos theta_o, sin theta_o, cos theta_e, cos(theta_e - theta_o) (2 where theta_o > theta_e), twins (1 where an
-inner node's two children are `twins`, else 0)] (the importance works in cosines: no trigonometry per step; whether
-two children are twins depends on the tree alone, so it is decided once, at the build);
+inner node's two children are `twins`, else 0), centre (3) (lo + hi) / 2, diagonal (3) hi - lo, half (half the
+diagonal's length)] (the importance works in cosines: no trigonometry per step; whether two children are twins
+depends on the tree alone, so it is decided once, at the build; the box's centre, diagonal and half-length are
+made once too, the same numbers the importance made from lo and hi at every step before);
 an inner node's children are rows left and right; a leaf has left = -1 - its triangle, right = -1.
 Each triangle's path from the root is `depth` steps, bit l of `path` the side (1: right) at step l, so
 that `pick_probability` (the MIS pdf of a BSDF ray that hits the triangle) multiplies the same branch
@@ -70,7 +72,8 @@ import numpy as np
 
 LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT = 0, 3, 6, 9, 10, 11, 12, 13
 COS_O, SIN_O, COS_E, COS_EO, TWINS = 14, 15, 16, 17, 18
-NODE_FIELDS = 19
+CENTRE, DIAGONAL, HALF = 19, 22, 25
+NODE_FIELDS = 26
 # The upper bound's distance is at least this share of the node's diagonal (Cycles: half the bounding sphere's radius).
 CLAMP = 0.25
 # A box counts as above P's tangent plane only by more than this share of its distance and size (d + half its
@@ -294,7 +297,14 @@ def twins(left: np.ndarray, right: np.ndarray) -> np.ndarray:
 
 def with_cosines(nodes: np.ndarray) -> np.ndarray:
     """The nodes (k, NODE_FIELDS) with their cos theta_o, sin theta_o, cos theta_e and cos(theta_e - theta_o) (2 where
-    theta_o > theta_e: no lower bound) filled in from the angles."""
+    theta_o > theta_e: no lower bound) filled in from the angles, and their boxes' centre, diagonal and half its
+    length from lo and hi (summed in emitters.c dot3's order, so that both kernels read the same numbers)."""
+    lo, hi = nodes[:, LO:LO + 3], nodes[:, HI:HI + 3]
+    nodes[:, CENTRE:CENTRE + 3] = 0.5 * (lo + hi)
+    diagonal = hi - lo
+    nodes[:, DIAGONAL:DIAGONAL + 3] = diagonal
+    nodes[:, HALF] = 0.5 * np.sqrt(diagonal[:, 0] * diagonal[:, 0] + diagonal[:, 1] * diagonal[:, 1]
+                                   + diagonal[:, 2] * diagonal[:, 2])
     nodes[:, COS_O], nodes[:, SIN_O] = np.cos(nodes[:, THETA_O]), np.sin(nodes[:, THETA_O])
     nodes[:, COS_E] = np.cos(nodes[:, THETA_E])
     gap = nodes[:, THETA_E] - nodes[:, THETA_O]
@@ -309,10 +319,9 @@ def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> tuple[np.ndarr
 
     In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi] (sines >= 0)."""
     lo, hi = node[:, LO:LO + 3], node[:, HI:HI + 3]
-    v = 0.5 * (lo + hi) - P
+    v = node[:, CENTRE:CENTRE + 3] - P
     d = np.sqrt(np.einsum("ij,ij->i", v, v))
-    diagonal = hi - lo
-    half = 0.5 * np.sqrt(np.einsum("ij,ij->i", diagonal, diagonal))
+    diagonal, half = node[:, DIAGONAL:DIAGONAL + 3], node[:, HALF]
     inside_box = np.all((P >= lo) & (P <= hi), axis=1) | (d <= 0.0)
     # theta_u: the half-angle around the direction w to the centre that holds the box's corners.
     # cos^2 of each corner's angle where all lie in front (else the cone passes a hemisphere).
