@@ -20,24 +20,8 @@ INLINE void cross_product(const double *a, const double *b, double *out)
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-/* light_tree.py: the tree's node rows (NODE_FIELDS doubles each). */
-#define TREE_FIELDS 26
-#define TREE_AXIS 6
-#define TREE_ENERGY 11
-#define TREE_LEFT 12
-#define TREE_RIGHT 13
-#define TREE_COS_O 14
-#define TREE_SIN_O 15
-#define TREE_COS_E 16
-#define TREE_COS_EO 17
-#define TREE_TWINS 18
-#define TREE_CENTRE 19
-#define TREE_DIAGONAL 22
-#define TREE_HALF 25
-/* light_tree.CLAMP: the upper bound's distance is at least this share of the node's diagonal. */
-#define TREE_CLAMP 0.25
-/* light_tree.HORIZON: how far above P's tangent plane a box must lie, a share of its distance and size. */
-#define TREE_HORIZON 1e-6
+/* light_tree.py: the tree's node rows (TREE_FIELDS doubles each), its columns TREE_<NAME>, TREE_CLAMP and
+ * TREE_HORIZON: all made there (core/native/boundary.gen.h). */
 
 /* A shading point as the tree's walk sees it: P, N (zero: unknown), and what every node's importance would otherwise
  * make again from N alone (|N| per axis, whether N is known), made once per walk. */

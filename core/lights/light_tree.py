@@ -70,16 +70,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT = 0, 3, 6, 9, 10, 11, 12, 13
-COS_O, SIN_O, COS_E, COS_EO, TWINS = 14, 15, 16, 17, 18
-CENTRE, DIAGONAL, HALF = 19, 22, 25
-NODE_FIELDS = 26
+from ..native import schema
+
+# A node row's columns, known to C as TREE_<NAME> (core/native/boundary.gen.h): one layout, made here.
+_COLUMNS = schema.constants("TREE", dict(
+    lo=0, hi=3, axis=6, theta_o=9, theta_e=10, energy=11, left=12, right=13, cos_o=14, sin_o=15, cos_e=16, cos_eo=17,
+    twins=18, centre=19, diagonal=22, half=25, fields=26), "a light-tree node row's columns (light_tree.py)")
+(LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT, COS_O, SIN_O, COS_E, COS_EO, TWINS, CENTRE, DIAGONAL, HALF,
+ NODE_FIELDS) = (int(_COLUMNS[name]) for name in ("lo", "hi", "axis", "theta_o", "theta_e", "energy", "left", "right",
+                                                  "cos_o", "sin_o", "cos_e", "cos_eo", "twins", "centre", "diagonal",
+                                                  "half", "fields"))
 # The upper bound's distance is at least this share of the node's diagonal (Cycles: half the bounding sphere's radius).
-CLAMP = 0.25
+CLAMP = schema.constant("TREE_CLAMP", 0.25, "the upper bound's distance: at least this share of a node's diagonal")
 # A box counts as above P's tangent plane only by more than this share of its distance and size (d + half its
 # diagonal): an emitter P lies on (a floor that glows) is coplanar to rounding, and the two kernels, whose points
 # differ in their last bits, must agree that it is not above. What so little above sends P is found by BSDF rays.
-HORIZON = 1e-6
+HORIZON = schema.constant("TREE_HORIZON", 1e-6, "how far above P's tangent plane a node's box must lie, a share")
 # Two children alike to within this (their boxes as a share of their sizes, cone axes and angles, energy as a share of
 # both) are walked as twins: 1/2 each wherever P is, their importances not computed (`twins`; the two triangles of a
 # quad lamp, whose importances differ only in the last bits of their corners).

@@ -112,6 +112,28 @@
 #define UV_SPOT 1
 #define UV_AREA 2
 #define UV_SUN 3
+/* a light-tree node row's columns (light_tree.py) (core.lights.light_tree) */
+#define TREE_LO 0
+#define TREE_HI 3
+#define TREE_AXIS 6
+#define TREE_THETA_O 9
+#define TREE_THETA_E 10
+#define TREE_ENERGY 11
+#define TREE_LEFT 12
+#define TREE_RIGHT 13
+#define TREE_COS_O 14
+#define TREE_SIN_O 15
+#define TREE_COS_E 16
+#define TREE_COS_EO 17
+#define TREE_TWINS 18
+#define TREE_CENTRE 19
+#define TREE_DIAGONAL 22
+#define TREE_HALF 25
+#define TREE_FIELDS 26
+/* the upper bound's distance: at least this share of a node's diagonal (core.lights.light_tree) */
+#define TREE_CLAMP 0.25
+/* how far above P's tangent plane a node's box must lie, a share (core.lights.light_tree) */
+#define TREE_HORIZON 1e-06
 /* a closure's parameters (core/materials/base.py PARAMS) (core.materials.base) */
 #define CLOSURE_PARAMS 32
 /* a shader node's inputs, a MaterialRecord's rows (core.materials.base) */
