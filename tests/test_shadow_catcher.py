@@ -547,6 +547,37 @@ def test_a_camera_inside_a_catchers_own_fog_starts_the_catcher_only_light_in_it_
     assert not any("shadow catchers" in w for w in result.stats.warnings), result.stats.warnings
 
 
+def test_the_kernels_agree_on_a_glowing_catchers_light_in_a_scattering_catcher_fog_with_volume_bounces(monkeypatch):
+    """A glowing catcher floor (emission (0.3, 0.2, 0.1)) under the ball and the two suns, in a catcher-flagged
+    scattering fog around the camera, Volume Bounces 2: the catcher-only light of the caught samples (the film's K
+    sums, catcher.py) is the same on both kernels within float rounding, the floor's own glow in it (the compiled
+    kernel's volume chains move a camera hit's emission into its lane's scattered light, which its catcher-only
+    light dropped before), and positive everywhere."""
+    from core.integrators import catcher as catcher_
+    seen, images = {}, catcher_.images
+
+    def spy(sums, *args, **kwargs):
+        seen["K"] = np.array(sums[..., 4:7])
+        return images(sums, *args, **kwargs)
+
+    monkeypatch.setattr(catcher_, "images", spy)
+    light = {}
+    for kernels in KERNELS:
+        scene = ball_over_catcher(world=0.2)
+        scene.materials[0] = materials.Material(np.full(3, 0.5), "Floor", emission=np.array([0.3, 0.2, 0.1]))
+        scene.materials.append(materials.Material(np.zeros(3), "Fog", nodes=[("TRANSPARENT", np.ones(3), {})],
+                                                  volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8),
+                                                                            "density": 0.1})], volume_only=True))
+        scene.add_mesh(primitives.box((12.0, 12.0, 6.0), center=(1.0, 0.0, 2.0)), materials=np.array([1]))
+        scene.instances[-1].is_shadow_catcher = True
+        settings = RenderSettings(width=8, height=8, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                                  volume_bounces=2, shadow_catcher_pass=True)
+        assert render.render(scene, settings).stats.kernels.startswith(kernels)
+        light[kernels] = seen["K"]
+    assert (light["numpy"] > 0.3).all()
+    np.testing.assert_allclose(light["compiled"], light["numpy"], rtol=1e-5, atol=1e-7)
+
+
 def test_with_whitteds_tracer_a_catchers_own_fog_around_the_camera_is_said_once_and_left_out():
     """Whitted's tracer has no split start: a catcher-flagged absorbing fog box around the camera and the catcher
     floor is left out of its catcher-only scene, said once, and the pass is what it is with the fog flagged no

@@ -596,6 +596,14 @@ static int64_t catcher_light(const ChunkParams *alone, const ChunkArgs *a, Camer
         for (int c = 0; c < 3; c++)
             row[4 + c] += finite_or_zero(through[lane][c] * (H->L[3 * h + c] + work->extra[lane][c]));
     }
+    /* (with Volume Bounces integrate moves the hits' own light, the catcher's emission, into its lane's scattered
+     *  light, with what its media scatter: none along these rays, which cross no medium to their catcher) */
+    if (alone->media != NULL && alone->media->scatters != 0)
+        for (int64_t lane = 0; lane < b->n; lane++) {
+            if (!caught[lane]) continue;
+            double *row = sums + CATCHER_CHANNELS * ((start + lane) / a->spp);
+            for (int c = 0; c < 3; c++) row[4 + c] += finite_or_zero(through[lane][c] * H->lane_scattered[lane][c]);
+        }
     H->groups = groups;
     H->group_count = group_count;
     return rays;
