@@ -285,3 +285,27 @@ def test_a_catcher_flagged_fog_over_the_floor_is_in_the_catcher_only_light_as_in
         np.testing.assert_allclose(cycles[where].mean(axis=0), primer[where].mean(axis=0), rtol=0.02)
     for engine in ("PRIMER", "CYCLES"):
         np.testing.assert_allclose(channels(out[engine], "Combined", "RGBA"), 0.0, atol=1e-4, err_msg=engine)
+
+
+def test_a_camera_inside_a_catcher_flagged_fog_keeps_it_in_the_catcher_only_light_as_in_cycles(tmp_path):
+    """The absorbing fog box from -0.5 m to 4 m around camera, ball and floor, itself a shadow catcher: both
+    renderers split the camera path at the floor, the fog in front in its throughput (the matte black, alpha
+    1 - mean(T) per pixel, Cycles' within 1% of Primer's closed form), and go on from the floor in the catcher fog
+    the camera is in (Cycles re-makes the split path's volume stack from the camera ray's origin), so the fog darkens
+    the whole scene's light and the catcher-only light alike: the pass is 1 where no shadow falls in both (before,
+    Primer left that fog out of the catcher-only light and its pass was exp(-4 sigma_a) there) and the means in the
+    slanted sun's shadow agree within 2%."""
+    density, color = FOG[0], FOG[1]
+    out = render_setups(str(tmp_path), fog=(density, color, 0.0), tags=("pass",), fog_box=(1.75, 4.5, True))["pass"]
+    primer = channels(out["PRIMER"], "Combined", "RGBA")
+    cycles = channels(out["CYCLES"], "Combined", "RGBA")
+    assert (primer[..., 3] > 0.15).all()
+    for matte in (primer, cycles):
+        np.testing.assert_allclose(matte[..., :3], 0.0, atol=1e-4)
+    np.testing.assert_allclose(cycles[..., 3], primer[..., 3], rtol=0.01)
+    primer = channels(out["PRIMER"], "Shadow Catcher", "RGB")
+    cycles = channels(out["CYCLES"], "Shadow Catcher", "RGB")
+    lit, shade = inner((np.abs(primer - 1.0) < 1e-5).all(axis=-1)), inner(primer[..., 0] < 0.45)
+    assert lit.sum() >= 100 and shade.sum() >= 20, (lit.sum(), shade.sum())
+    np.testing.assert_allclose(cycles[lit], 1.0, atol=1e-3)
+    np.testing.assert_allclose(cycles[shade].mean(axis=0), primer[shade].mean(axis=0), rtol=0.02)

@@ -518,23 +518,80 @@ def test_the_catcher_only_scene_keeps_the_catchers_media_and_leaves_the_worlds_o
     np.testing.assert_array_equal(alone.sigma_t, media.sigma_t)
 
 
-def test_a_catchers_own_fog_around_the_camera_is_said_once_and_left_out_of_the_catcher_only_light():
-    """A catcher-flagged absorbing fog box around the camera and the catcher floor (Primer's catcher-only camera rays
-    would cross it again before the catcher; Cycles' split path starts there): it is left out of the catcher-only
-    scene, said once, and the pass is what it is with the fog flagged no catcher, exp(-sigma_a 4) under a
-    straight-down sun, on both kernels."""
-    density = 0.3
-    sigma = density * (1.0 - FOG)
-    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": density})], -0.5, 4.0)
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_a_camera_inside_a_catchers_own_fog_starts_the_catcher_only_light_in_it_at_the_catcher(kernels, integrator):
+    """A catcher-flagged absorbing fog box (sigma_c) from -0.5 m to 4 m around the orthographic camera (3 m up, its
+    rays from the clip start, 0.1 m) and the catcher floor, and an absorbing fog that is no catcher (sigma_n) from
+    -0.5 m to 1 m, a straight-down sun. The camera path reaches the floor through 2.9 m of the catcher fog and 1 m of
+    the other: the matte black with alpha 1 - mean(T), T = exp(-2.9 sigma_c - sigma_n). Cycles' split path goes on
+    from the floor with the volume stack of the catchers' media the camera (its ray's origin) is in, the catcher fog,
+    its throughput T: the catcher-only light is T E exp(-4 sigma_c) rho / pi and the whole scene's T E exp(-4 sigma_c -
+    sigma_n) rho / pi, so the pass is exp(-sigma_n) per channel (within float32 rounding), not exp(-4 sigma_c -
+    sigma_n) (the catcher fog left out, as before) nor exp(2.9 sigma_c - sigma_n) (crossed again); nothing said."""
+    sigma_c, sigma_n = 0.3 * (1.0 - FOG), 0.2 * (1.0 - PANE)
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": 0.3})], -0.5, 4.0)
+    scene.instances[1].is_shadow_catcher = True
+    scene.materials.append(materials.Material(np.zeros(3), "Other fog", nodes=[("TRANSPARENT", np.ones(3), {})],
+                                              volume=[("ABSORPTION", 1.0, {"color": PANE, "density": 0.2})],
+                                              volume_only=True))
+    scene.add_mesh(primitives.box((10.0, 10.0, 1.5), center=(0.0, 0.0, 0.25)), materials=np.array([2]))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=2.0))
+    settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator=integrator, max_bounces=2,
+                              shadow_catcher_pass=True, transparent_background=True)
+    result = render.render(scene, settings)
+    assert result.stats.kernels.startswith(kernels)
+    np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(np.exp(-sigma_n), (4, 4, 3)), rtol=1e-5)
+    np.testing.assert_allclose(result.image[..., :3], 0.0, atol=1e-7)
+    np.testing.assert_allclose(result.image[..., 3], 1.0 - np.exp(-2.9 * sigma_c - sigma_n).mean(), rtol=1e-5)
+    assert not any("shadow catchers" in w for w in result.stats.warnings), result.stats.warnings
+
+
+def test_the_kernels_agree_on_a_glowing_catchers_light_in_a_scattering_catcher_fog_with_volume_bounces(monkeypatch):
+    """A glowing catcher floor (emission (0.3, 0.2, 0.1)) under the ball and the two suns, in a catcher-flagged
+    scattering fog around the camera, Volume Bounces 2: the catcher-only light of the caught samples (the film's K
+    sums, catcher.py) is the same on both kernels within float rounding, the floor's own glow in it (the compiled
+    kernel's volume chains move a camera hit's emission into its lane's scattered light, which its catcher-only
+    light dropped before), and positive everywhere."""
+    from core.integrators import catcher as catcher_
+    seen, images = {}, catcher_.images
+
+    def spy(sums, *args, **kwargs):
+        seen["K"] = np.array(sums[..., 4:7])
+        return images(sums, *args, **kwargs)
+
+    monkeypatch.setattr(catcher_, "images", spy)
+    light = {}
+    for kernels in KERNELS:
+        scene = ball_over_catcher(world=0.2)
+        scene.materials[0] = materials.Material(np.full(3, 0.5), "Floor", emission=np.array([0.3, 0.2, 0.1]))
+        scene.materials.append(materials.Material(np.zeros(3), "Fog", nodes=[("TRANSPARENT", np.ones(3), {})],
+                                                  volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8),
+                                                                            "density": 0.1})], volume_only=True))
+        scene.add_mesh(primitives.box((12.0, 12.0, 6.0), center=(1.0, 0.0, 2.0)), materials=np.array([1]))
+        scene.instances[-1].is_shadow_catcher = True
+        settings = RenderSettings(width=8, height=8, samples=2, kernels=kernels, integrator="path", max_bounces=2,
+                                  volume_bounces=2, shadow_catcher_pass=True)
+        assert render.render(scene, settings).stats.kernels.startswith(kernels)
+        light[kernels] = seen["K"]
+    assert (light["numpy"] > 0.3).all()
+    np.testing.assert_allclose(light["compiled"], light["numpy"], rtol=1e-5, atol=1e-7)
+
+
+def test_with_whitteds_tracer_a_catchers_own_fog_around_the_camera_is_said_once_and_left_out():
+    """Whitted's tracer has no split start: a catcher-flagged absorbing fog box around the camera and the catcher
+    floor is left out of its catcher-only scene, said once, and the pass is what it is with the fog flagged no
+    catcher, exp(-sigma_a 4) under a straight-down sun."""
+    sigma = 0.3 * (1.0 - FOG)
+    scene = in_a_fog_box([("ABSORPTION", 1.0, {"color": FOG, "density": 0.3})], -0.5, 4.0)
     scene.instances[1].is_shadow_catcher = True
     scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=2.0))
-    for kernels in KERNELS:
-        settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator="path", max_bounces=2,
-                                  shadow_catcher_pass=True, transparent_background=True)
-        result = render.render(scene, settings)
-        assert sum("Volume the camera may be inside" in w for w in result.stats.warnings) == 1, result.stats.warnings
-        np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(np.exp(-sigma * 4.0), (4, 4, 3)),
-                                   rtol=1e-5, err_msg=kernels)
+    settings = RenderSettings(width=4, height=4, samples=2, kernels="numpy", integrator="whitted",
+                              shadow_catcher_pass=True, transparent_background=True)
+    result = render.render(scene, settings)
+    assert sum("Volume the camera may be inside" in w for w in result.stats.warnings) == 1, result.stats.warnings
+    np.testing.assert_allclose(result.aux["shadow_catcher"], np.broadcast_to(np.exp(-sigma * 4.0), (4, 4, 3)),
+                               rtol=1e-5)
 
 
 def test_what_primer_leaves_out_of_catchers_in_media_is_said_once():

@@ -44,7 +44,11 @@ groups and Volume Direct kept), and what they let through multiplies the split p
 (`front_media`; past a clear surface or a volume's boundary in front of the catcher, the media it leads into add
 their emission, in their light groups too, and transmittance the same way, sample_rows); the catcher-only scene keeps
 the catcher objects' own media alone (`catcher_media`: the world's left out, the other objects' never entered, for
-they are hidden from every ray; but a catcher's medium the camera may be inside, said once). Left out, said once
+they are hidden from every ray). Cycles re-makes that stack from the camera ray's origin, so a camera inside a
+catcher's own medium starts its split path in it at the catcher, the camera's stretch of it already in the split
+path's throughput: the catcher-only scene's camera rays (`catcher_split`, path.py; compiled: ChunkParams.split) cross
+no medium to their catcher and go on from it in the catchers' media the camera is in (Whitted's tracer leaves such a
+medium out, said once). Left out, said once
 (`media_notes`): what media past the camera ray's first surface scatter, and with Volume Bounces what media in front
 of a catcher scatter.
 """
@@ -117,8 +121,10 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
     # (and no Fast GI Add: Cycles' split path, PATH_RAY_SHADOW_CATCHER_PASS, traces no ambient occlusion)
     settings = dataclasses.replace(ctx.settings, passes=(), light_groups=(), denoising_features=False, aux=(),
                                    ao_additive_factor=0.0)
+    # (catcher_split: its camera rays go to their catcher through no medium and on from it in the catchers' media
+    #  the camera is in, as Cycles' split path, whose throughput already holds the media in front: path.py)
     extra = dict(ctx.extra, transparent=True, camera_lamps=[], media=media, emitters=emitters,
-                 light_groups=None, pass_layout=passes_.PassLayout((), 1))
+                 light_groups=None, pass_layout=passes_.PassLayout((), 1), catcher_split=True)
     if extra["media"] is None:
         extra.pop("media_bounds", None)     # (else the render's box of the media's triangles holds the catchers')
     extra.pop("catcher", None)
@@ -129,10 +135,11 @@ def catcher_media(ctx: Context, geometry):
     """The media of the catcher-only scene of `ctx` (its `geometry`): the render's without the world's, as Cycles
     re-makes the split path's volume stack of the objects its shadow-catcher visibility sees (the objects that are
     not catchers hidden from every ray there: their media never enter a stack, rays.camera_media passes them), or
-    None where no catcher object has a Volume; and a note, or None. Where the camera may start inside a catcher's
-    medium (within the box of their triangles; an orthographic camera's half width around it) it keeps none and says
-    so: its rays there would cross that medium again before the catcher (Cycles' split path starts at the catcher,
-    the camera's stretch already in its throughput). Returns (Media or None, str or None)."""
+    None where no catcher object has a Volume; and a note, or None. A camera inside a catcher's medium is modelled by
+    the path tracer (`catcher_split`: its camera rays there cross no medium to the catcher and go on from it in the
+    catcher media the camera is in, as Cycles' split path); Whitted's tracer, which has no such start, keeps none of
+    them where the camera may be inside one (within the box of their triangles; an orthographic camera's half width
+    around it) and says so. Returns (Media or None, str or None)."""
     media = ctx.extra.get("media")
     if media is None or not media.has_medium.any():
         return None, None
@@ -143,14 +150,17 @@ def catcher_media(ctx: Context, geometry):
     mine = media.has_medium[triangles.material]
     if not mine.any():
         return None, None
+    if ctx.settings.integrator != WHITTED:
+        return media.without_world(), None
     corners = triangles.corners[mine].reshape(-1, 3)
     camera = ctx.extra.get("camera")
     margin = 0.5 * float(camera.ortho_scale) if camera is not None and camera.type == "ORTHO" else 0.0
     eye = -np.asarray(ctx.extra.get("camera_offset", np.zeros(3)), np.float64)
     if ((eye >= corners.min(axis=0) - margin) & (eye <= corners.max(axis=0) + margin)).all():
-        return None, ("shadow catchers: a catcher's own Volume the camera may be inside is left out of the "
-                      "catcher-only light the Shadow Catcher pass divides by (Cycles keeps it there from the catcher "
-                      "on); catchers' Volumes away from the camera are kept")
+        return None, ("shadow catchers: with Whitted's tracer, a catcher's own Volume the camera may be inside is "
+                      "left out of the catcher-only light the Shadow Catcher pass divides by (Cycles keeps it there "
+                      "from the catcher on; the path and direct tracers do); catchers' Volumes away from the camera "
+                      "are kept")
     return media.without_world(), None
 
 

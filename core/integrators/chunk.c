@@ -29,10 +29,11 @@ static void camera_ray_cone(const ChunkParams *params, const CameraBlock *b, int
     *cone = camera_cone(P, f, spread);
 }
 
-/* The media each camera lane of block b starts in (rays.camera_media), into H->lane_inside, with the extinction and
- * emission along it (H->lane_sigma, lane_emission). Rays from the point the last walk started at take its stack (the
- * walk goes up from the ray's origin whatever way it looks: a perspective camera with Clip Start 0 walks once per
- * block). */
+/* The media each camera lane of block b starts in (rays.camera_media), into H->lane_inside and lane_start, with the
+ * extinction and emission along it (H->lane_sigma, lane_emission); in the catcher-only scene (params->split, catcher.py
+ * catcher_split) lane_inside is empty and lane_start the stack its path goes on with from its hit. Rays from the
+ * point the last walk started at take its stack (the walk goes up from the ray's origin whatever way it looks: a
+ * perspective camera with Clip Start 0 walks once per block). */
 static void camera_lane_media(const ChunkParams *params, const CameraBlock *b, BlockHits *H)
 {
     double walked[3] = {NAN, NAN, NAN};
@@ -45,7 +46,9 @@ static void camera_lane_media(const ChunkParams *params, const CameraBlock *b, B
             for (int c = 0; c < 3; c++) walked[c] = O[c];
         }
         H->lane_inside[k] = stack;
-        medium_along(params->media, &stack, H->lane_sigma[k], H->lane_emission[k]);
+        H->lane_start[k] = stack;
+        if (params->split) stack_empty(H->lane_inside + k);    /* (catcher.py catcher_split: no medium to the catcher) */
+        medium_along(params->media, H->lane_inside + k, H->lane_sigma[k], H->lane_emission[k]);
     }
 }
 
@@ -137,7 +140,7 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
              *  to it, 1 without media, and 0) */
             for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
             if (params->media != NULL) {
-                H->inside[h] = H->lane_inside[lane];
+                H->inside[h] = H->lane_start[lane];
                 March march;                    /* (a heterogeneous medium: marched, field.c) */
                 const March *m = stretch_march(params->media, &H->lane_inside[lane], O, D, H->t[lane],
                                                H->lane_sigma[lane], H->lane_emission[lane], &march);
@@ -593,6 +596,14 @@ static int64_t catcher_light(const ChunkParams *alone, const ChunkArgs *a, Camer
         for (int c = 0; c < 3; c++)
             row[4 + c] += finite_or_zero(through[lane][c] * (H->L[3 * h + c] + work->extra[lane][c]));
     }
+    /* (with Volume Bounces integrate moves the hits' own light, the catcher's emission, into its lane's scattered
+     *  light, with what its media scatter: none along these rays, which cross no medium to their catcher) */
+    if (alone->media != NULL && alone->media->scatters != 0)
+        for (int64_t lane = 0; lane < b->n; lane++) {
+            if (!caught[lane]) continue;
+            double *row = sums + CATCHER_CHANNELS * ((start + lane) / a->spp);
+            for (int c = 0; c < 3; c++) row[4 + c] += finite_or_zero(through[lane][c] * H->lane_scattered[lane][c]);
+        }
     H->groups = groups;
     H->group_count = group_count;
     return rays;

@@ -107,6 +107,8 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("passes", ptr("PassTables"), "the first-hit passes asked for (passes.c), or NULL"),
     ("media", ptr("MediaTables"), "the render's homogeneous media (core/volumes/media.c), or NULL: none"),
     ("catcher", ptr(), "the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher"),
+    ("split", I32, "1: the catcher-only scene's (catcher.py catcher_split): camera rays cross no medium to their "
+                   "catcher and go on from it in the media the camera is in"),
 ], tables=("INTEGRATOR",))
 
 ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
@@ -293,7 +295,7 @@ class Compiled:
             ao_bounces=s.ao_bounces if s.ao_factor != 0.0 and s.integrator == "path" else 0,
             ao_factor=float(s.ao_factor), ao_distance=float(s.ao_distance),
             ao_additive_factor=float(s.ao_additive_factor) if s.integrator == "path" else 0.0,
-            light_passes=self.light_passes)
+            light_passes=self.light_passes, split=bool(ctx.extra.get("catcher_split", False)))
         self.want_squares = bool(s.adaptive)
         self.features = bool(s.denoising_features)
         self.params.features = self.features

@@ -63,6 +63,7 @@ typedef struct {
     int32_t bounds[BLOCK];
     int32_t volume[BLOCK];                       /* a path's scattering events in media so far (Volume Bounces) */
     VolumeStack lane_inside[BLOCK];
+    VolumeStack lane_start[BLOCK];               /* (the catcher-only scene: the stack at the catcher, ChunkParams.split) */
     double lane_sigma[BLOCK][3], lane_emission[BLOCK][3];
     double lane_scattered[BLOCK][3];             /* what the media scatter towards each camera lane (volume.c) */
 } BlockHits;

@@ -358,6 +358,12 @@ class PathTracing(Integrator):
         # The media the camera rays start in (core/volumes): the world's, and those of the meshes around the camera.
         media = ctx.extra.get("media")
         inside = None if media is None else camera_media(ctx, O)
+        at_hit = inside
+        if media is not None and ctx.extra.get("catcher_split", False):
+            # (the shadow catchers' catcher-only scene, catcher.py: the render's camera path brought these rays to
+            #  their catcher through the media in front of it, and Cycles' split path goes on from there with the
+            #  stack of the catchers' media the camera is in; so its camera rays cross no medium on the way)
+            inside = media.start(len(O))
         stretch = None if media is None else media.along(inside, O, D)
         L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch, times)
         # The denoising features (features.py): what the camera sees itself (not what the media scatter towards it),
@@ -414,7 +420,7 @@ class PathTracing(Integrator):
         owner = hit                                  # the camera ray each path belongs to
         throughput = np.ones((len(hit), 3))
         if media is not None:                        # (what the media let through to the camera's hits)
-            inside = inside[hit]
+            inside = at_hit[hit]
             throughput = (stretch.rows(hit).transmittance(surface.t) if camera_through is None
                           else camera_through[hit])
         diffuse = np.zeros(len(hit), np.int64)

@@ -869,6 +869,7 @@ struct ChunkParams {
     const PassTables *passes;               /* the first-hit passes asked for (passes.c), or NULL */
     const MediaTables *media;               /* the render's homogeneous media (core/volumes/media.c), or NULL: none */
     const void *catcher;                    /* the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher */
+    int32_t split;                          /* 1: the catcher-only scene's (catcher.py catcher_split): camera rays cross no medium to their catcher and go on from it in the media the camera is in */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -1432,7 +1433,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(1445416722100176955);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7607883560999792480);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(2031733600485699727);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3383215655614875185);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
