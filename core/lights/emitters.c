@@ -394,6 +394,30 @@ INLINE double rectangle_solid_angle(const double *P, const double *R)
     return rectangle_solid_angle_of(P, R, F);
 }
 
+/* spherical_rectangle_sample_of's steps 1 and 2 once the angle is drawn: the point (xu, yv) on the rectangle
+ * [x0, x1] x [y0, y1] at depth z0 (its frame's coordinates) whose direction leaves the solid angle a (sin_a, cos_a)
+ * left of it, turned by the unit complex number (re, im) (the paper's g2 + g3, its pi taken out by flipping signs;
+ * b0, b1 the first and third edges' normals' z), then uniform in the height of the direction's projection by u1.
+ * Branch-free, so that quad_lamp_lanes' loop over a block stays SIMD. */
+INLINE void rectangle_point_at(double sin_a, double cos_a, double re, double im, double b0, double b1, double x0,
+                               double x1, double y0, double y1, double z0, double u1, double *xu_out, double *yv_out)
+{
+    /* 1. x: where the solid angle left of it is a. */
+    double sin_au = sin_a * re + cos_a * im, cos_au = cos_a * re - sin_a * im;
+    double fu = sin_au != 0.0 ? (cos_au * b0 + b1) / sin_au : 0.0;
+    double cu = copysign(1.0 / sqrt(fu * fu + b0 * b0), fu);
+    cu = cu < -1.0 ? -1.0 : (cu > 1.0 ? 1.0 : cu);
+    double xu = -(cu * z0) / at_least(sqrt(at_least(1.0 - cu * cu, 0.0)), 1e-300);
+    xu = xu == xu ? xu : 0.0;
+    xu = xu < x0 ? x0 : (xu > x1 ? x1 : xu);
+    /* 2. y: uniform in the height of the direction's projection between its values at the two ends. */
+    double d2 = xu * xu + z0 * z0;
+    double h0 = y0 / sqrt(d2 + y0 * y0), h1 = y1 / sqrt(d2 + y1 * y1);
+    double hv = h0 + u1 * (h1 - h0);
+    *xu_out = xu;
+    *yv_out = hv * hv < 1.0 - 1e-12 ? hv * sqrt(d2 / (1.0 - hv * hv)) : y1;
+}
+
 /* emitters.spherical_rectangle_sample for one point: the direction L uniform over the spherical rectangle R (with its
  * rectangle_constants F) subtends from P by u (2,), the distance to its point, pdf 1 / Omega (Urena, Fajardo and
  * King 2013). */
@@ -409,18 +433,8 @@ INLINE void spherical_rectangle_sample_of(const double *P, const double *R, cons
     /* 1. x: the solid angle left of it u0 S (the paper's au = u0 S + k, k = pi + g2 + g3, its pi taken out by
      * flipping signs): sin and cos of u0 S turned by g2 + g3 (turn's unit complex number). */
     double sin_a = sin(u[0] * S), cos_a = cos(u[0] * S);
-    double sin_au = sin_a * turn[1] + cos_a * turn[2], cos_au = cos_a * turn[1] - sin_a * turn[2];
-    double fu = sin_au != 0.0 ? (cos_au * b0 + b1) / sin_au : 0.0;
-    double cu = copysign(1.0 / sqrt(fu * fu + b0 * b0), fu);
-    cu = cu < -1.0 ? -1.0 : (cu > 1.0 ? 1.0 : cu);
-    double xu = -(cu * z0) / at_least(sqrt(at_least(1.0 - cu * cu, 0.0)), 1e-300);
-    xu = xu == xu ? xu : 0.0;
-    xu = xu < x0 ? x0 : (xu > x1 ? x1 : xu);
-    /* 2. y: uniform in the height of the direction's projection between its values at the two ends. */
-    double d2 = xu * xu + z0 * z0;
-    double h0 = y0 / sqrt(d2 + y0 * y0), h1 = y1 / sqrt(d2 + y1 * y1);
-    double hv = h0 + u[1] * (h1 - h0);
-    double yv = hv * hv < 1.0 - 1e-12 ? hv * sqrt(d2 / (1.0 - hv * hv)) : y1;
+    double xu, yv;
+    rectangle_point_at(sin_a, cos_a, turn[1], turn[2], b0, b1, x0, x1, y0, y1, z0, u[1], &xu, &yv);
     double w[3];
     for (int c = 0; c < 3; c++) w[c] = xu * x[c] + yv * y[c] + z0 * z[c];
     double length = sqrt(dot3(w, w));
@@ -644,17 +658,8 @@ INLINE void quad_lamp_lanes(const EmitterTables *e, int64_t i, int64_t n, double
         double x0 = ext[0][k], x1 = ext[1][k], y0 = ext[2][k], y1 = ext[3][k], z0 = ext[4][k];
         double z[3] = {Z[0] * flip[k], Z[1] * flip[k], Z[2] * flip[k]};
         double b0 = n0[k], b1 = n2[k];
-        double sin_au = sin_a[k] * re_b[k] + cos_a[k] * im_b[k], cos_au = cos_a[k] * re_b[k] - sin_a[k] * im_b[k];
-        double fu = sin_au != 0.0 ? (cos_au * b0 + b1) / sin_au : 0.0;
-        double cu = copysign(1.0 / sqrt(fu * fu + b0 * b0), fu);
-        cu = cu < -1.0 ? -1.0 : (cu > 1.0 ? 1.0 : cu);
-        double xu = -(cu * z0) / at_least(sqrt(at_least(1.0 - cu * cu, 0.0)), 1e-300);
-        xu = xu == xu ? xu : 0.0;
-        xu = xu < x0 ? x0 : (xu > x1 ? x1 : xu);
-        double d2 = xu * xu + z0 * z0;
-        double h0 = y0 / sqrt(d2 + y0 * y0), h1 = y1 / sqrt(d2 + y1 * y1);
-        double hv = h0 + u[1][k] * (h1 - h0);
-        double yv = hv * hv < 1.0 - 1e-12 ? hv * sqrt(d2 / (1.0 - hv * hv)) : y1;
+        double xu, yv;
+        rectangle_point_at(sin_a[k], cos_a[k], re_b[k], im_b[k], b0, b1, x0, x1, y0, y1, z0, u[1][k], &xu, &yv);
         double w[3];
         for (int c = 0; c < 3; c++) w[c] = xu * X[c] + yv * Y[c] + z0 * z[c];
         double length = sqrt(dot3(w, w));
