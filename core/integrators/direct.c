@@ -665,6 +665,8 @@ typedef struct {
     double ao_factor, ao_distance;   /* Fast GI: the world's scale for short rays, and how far they look */
     double ao_additive_factor;  /* Fast GI (Add): ambient occlusion at every path vertex times this (0: off) */
     const Transmitter *ao_transmitter;   /* what Add's rays pass (transparent surfaces, no media) */
+    int mnee;                   /* 1: Shadow Caustics walk for caustics lamps (ChunkParams.mnee; mnee.c) */
+    int mnee_limits[3];         /* the bounce limits a walked chain must fit: Max, Diffuse, Transmission Bounces */
 } DirectSettings;
 
 /* vertex.fast_gi_ray for one ray carrying `path` (its counters past the bounce that sent it): whether it is Fast GI's
@@ -993,6 +995,10 @@ INLINE void link_block(SampleBlock *b, const BlockHits *H, const DirectSettings 
     }
 }
 
+/* Shadow caustics for a block of a caustics lamp's samples (mnee.c, included after this file). */
+static void mnee_block(SampleBlock *b, const BlockHits *H, const DirectSettings *ds, const LightRecord *light,
+                       int64_t count);
+
 NOINLINE static int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *embree_ticks)
 {
     const ShadowSettings *settings = ds->shadows;
@@ -1037,6 +1043,8 @@ NOINLINE static int64_t direct_light(BlockHits *H, const DirectSettings *ds, uin
                 for (int64_t k = 0; k < b.n; k++)
                     if (H->traced[b.hit[k]] && b.blockers[k] == ALL_SETS)   /* (shadow-linked: samples alone) */
                         b.weight[k] = b.weight[k] * power_heuristic(mis_samples(light) * b.pdf[k], b.pdf_bsdf[k]);
+            if (ds->mnee && light->caustics != 0 && ds->geometry->caustics != NULL)   /* (Shadow Caustics, mnee.c) */
+                mnee_block(&b, H, ds, light, count);
             uint64_t start = ticks();
             rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter, H,
                                   ds->clamping ? ds->caps : NULL, (double)count, ds->light_passes ? H->parts : NULL,

@@ -30,7 +30,9 @@ point held, its pdf from the last vertex in area measure) and sun lamps; area la
 Cycles) and the world are not walked (Primer warns).
 
 Cycles' source: intern/cycles/kernel/integrator/mnee.h (kernel_path_mnee_sample and what it calls), called from
-shade_surface.h integrate_surface_direct_light. Python reference only: the compiled kernels do not walk (Primer warns).
+shade_surface.h integrate_surface_direct_light. Its compiled twin, core/integrators/mnee.c (one light sample at a time,
+the same numbers), walks lamps without extent only (compiled_walks: point and spot lamps of radius 0, suns of angle
+0); for the others the compiled kernels leave the casters' ordinary shadow (Primer warns).
 """
 from __future__ import annotations
 
@@ -78,6 +80,13 @@ def walks(light) -> bool:
     if kind == "AREA":                    # (Spread 0, a fixed direction in Cycles, is left out)
         return light.spread > 0.0 and light.area() > 0.0
     return kind == "SUN"
+
+
+def compiled_walks(light) -> bool:
+    """Whether the compiled kernels walk for light samples of `light` (core/integrators/mnee.c): a light `walks` for
+    that has no extent (point and spot lamps of radius 0, suns of angle 0), whose light no BSDF ray meets, so that
+    nothing has to be culled from the paths (PathState.caustics_cull)."""
+    return walks(light) and bool(getattr(light, "delta", False))
 
 
 def active(ctx) -> bool:
@@ -700,8 +709,8 @@ def sample(ctx, surface, shader, wo: np.ndarray, rows: np.ndarray, light, ls, u_
 
 def notes(ctx, compiled: bool) -> list:
     """What a render of `ctx` leaves out of Cycles' shadow caustics (warnings, list of str): caustics lights that are
-    not walked (area lamps of Spread 0) and, where the compiled kernels render (`compiled`),
-    the walk itself, which only the Python reference takes."""
+    not walked (area lamps of Spread 0) and, where the compiled kernels render (`compiled`), the caustics lights
+    they do not walk (lamps with extent: compiled_walks)."""
     lights = [light for light in ctx.lights if getattr(light, "caustics", False)]
     if not lights or not len(ctx.geometry.instance_caustics):
         return []
@@ -710,8 +719,13 @@ def notes(ctx, compiled: bool) -> list:
         return []
     out = []
     if compiled:
-        out.append("shadow caustics: the compiled kernels do not walk Cycles' manifold next-event estimation; casters "
-                   "cast their ordinary shadow (render with Kernels: NumPy, the Python reference, for the caustics)")
+        lacking = sorted({getattr(light, "name", "light") for light in lights if walks(light)
+                          and not compiled_walks(light)})
+        if lacking:
+            out.append(f"shadow caustics: the compiled kernels walk Cycles' manifold next-event estimation only for "
+                       f"lamps without extent (point and spot lamps of radius 0, suns of angle 0): {', '.join(lacking)} "
+                       "cast their ordinary shadow through the casters (render with Kernels: NumPy, the Python "
+                       "reference, for their caustics)")
     left = sorted({getattr(light, "name", "light") for light in lights if not walks(light)})
     if left:
         out.append(f"shadow caustics: {', '.join(left)} (area lamps of Spread 0) are not walked; casters cast their "
