@@ -199,7 +199,8 @@ def test_the_direct_tracer_does_not_walk_as_cycles_at_max_bounces_zero(kernels):
     assert floor_radiance(scene, 0.5, kernels=kernels) > 0.0
 
 
-def test_a_round_lamp_is_not_counted_twice_by_the_floors_rays_through_the_glass():
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_round_lamp_is_not_counted_twice_by_the_floors_rays_through_the_glass(kernels):
     """A round lamp (radius 0.3, soft falloff) over the slab: MNEE brings its light through the glass from the disk
     point each sample lands on, with the lamp's intensity there; the floor's BSDF rays that pass the glass and meet
     the lamp find nothing (Cycles' culling of a caster's light connection after a receiver). Measured at 128
@@ -209,7 +210,7 @@ def test_a_round_lamp_is_not_counted_twice_by_the_floors_rays_through_the_glass(
     lamp = PointLight(np.array([0.0, 0.0, 3.5]), 1000.0, radius=0.3, caustics=True)
     scene = scene_with(slab(1.0, 1.5), lamp)
     expected = ALBEDO / math.pi * slab_irradiance(0.0, 1000.0 / (4.0 * math.pi), 3.5, 0.5)
-    ratio = floor_radiance(scene, 0.0, samples=128) / expected
+    ratio = floor_radiance(scene, 0.0, samples=128, kernels=kernels) / expected
     assert 0.88 < ratio < 0.96
 
 
@@ -229,10 +230,8 @@ def test_rough_glass_walks_sampled_microfacets_and_keeps_the_slabs_light(kernels
 
 
 def test_what_is_not_walked_is_warned_about():
-    """The compiled kernels walk lamps without extent only (core/integrators/mnee.c): a round lamp's casters cast their
-    ordinary shadow there (a warning naming it), a point lamp of radius 0 warns nothing; nothing walks for an area
-    lamp of Spread 0 with Shadow Caustics (a warning naming it); the Python reference walking a point lamp warns
-    nothing."""
+    """Nothing walks for an area lamp of Spread 0 with Shadow Caustics (a warning naming it, from either kernel);
+    point lamps, round or not, are walked by both kernels and warn nothing."""
     from core.lights.area import AreaLight
 
     def notes(scene, kernels):
@@ -241,29 +240,34 @@ def test_what_is_not_walked_is_warned_about():
         settings = RenderSettings(width=2, height=2, samples=1, integrator="path", kernels=kernels)
         return [w for w in render.render(scene, settings).stats.warnings if "shadow caustics" in w]
 
-    lamp = PointLight(np.array([0.0, 0.0, 3.5]), 1000.0, caustics=True)
-    assert notes(scene_with(slab(1.0, 1.5), lamp), "numpy") == []
-    assert notes(scene_with(slab(1.0, 1.5), lamp), "compiled") == []
-    round_lamp = PointLight(np.array([0.0, 0.0, 3.5]), 1000.0, radius=0.3, name="Bulb", caustics=True)
-    assert notes(scene_with(slab(1.0, 1.5), round_lamp), "numpy") == []
-    compiled = notes(scene_with(slab(1.0, 1.5), round_lamp), "compiled")
-    assert len(compiled) == 1 and "compiled kernels" in compiled[0] and "Bulb" in compiled[0]
-    area = AreaLight(np.array([0.0, 0.0, 3.5]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]),
-                     np.array([0.0, 0.0, -1.0]), spread=0.0, name="Panel", caustics=True)
-    walked_not = notes(scene_with(slab(1.0, 1.5), area), "numpy")
-    assert len(walked_not) == 1 and "Panel" in walked_not[0]
+    for kernels in KERNELS:
+        lamp = PointLight(np.array([0.0, 0.0, 3.5]), 1000.0, caustics=True)
+        assert notes(scene_with(slab(1.0, 1.5), lamp), kernels) == []
+        round_lamp = PointLight(np.array([0.0, 0.0, 3.5]), 1000.0, radius=0.3, caustics=True)
+        assert notes(scene_with(slab(1.0, 1.5), round_lamp), kernels) == []
+        area = AreaLight(np.array([0.0, 0.0, 3.5]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]),
+                         np.array([0.0, 0.0, -1.0]), spread=0.0, name="Panel", caustics=True)
+        walked_not = notes(scene_with(slab(1.0, 1.5), area), kernels)
+        assert len(walked_not) == 1 and "Panel" in walked_not[0]
 
 
-def test_the_compiled_walk_gives_the_python_references_numbers():
+@pytest.mark.parametrize("kind", ["point", "round", "area"])
+def test_the_compiled_walk_gives_the_python_references_numbers(kind):
     """core/integrators/mnee.c walks as core/integrators/mnee.py: a 6 x 6 render looking down on the floor under a
-    glass ball and a point lamp (two-vertex chains over curved interfaces, some pixels walking, some in the ordinary
-    shadow or in plain light), path traced with 2 samples, is the same image from both kernels within 1e-5 relative
-    (measured: identical to the last bit)."""
+    glass ball and a point lamp, a round lamp (radius 0.2: its disk points held, the floor's rays through the glass
+    culled) or a small area lamp (its pdf turned into the lamp's area measure): two-vertex chains over curved
+    interfaces, some pixels walking, some in the ordinary shadow or in plain light, path traced with 2 samples, is the
+    same image from both kernels within 1e-5 relative (measured: to float32 rounding, 6e-8 absolute)."""
+    from core.lights.area import AreaLight
     R, gap = 0.5, 0.15
     ball = primitives.uv_sphere(R, 32, 16)
     ball = Mesh(ball.vertices + np.array([0.0, 0.0, gap + R]), ball.triangles, smooth=ball.smooth,
                 corner_normals=ball.corner_normals, name="ball")
-    lamp = PointLight(np.array([0.3, 0.2, 4.0]), 1000.0, caustics=True)
+    where = np.array([0.3, 0.2, 4.0])
+    lamp = {"point": PointLight(where, 1000.0, caustics=True),
+            "round": PointLight(where, 1000.0, radius=0.2, caustics=True),
+            "area": AreaLight(where, np.array([0.1, 0.0, 0.0]), np.array([0.0, 0.1, 0.0]), np.array([0.0, 0.0, -1.0]),
+                              power=100.0, caustics=True)}[kind]
     matrix = np.eye(4)
     matrix[:3, 3] = (0.0, 0.0, 0.14)           # (under the ball, past the clip start)
     images = {}
@@ -295,7 +299,8 @@ def test_a_spot_lamps_cone_is_met_by_the_refracted_path_not_the_straight_one(ker
 
 
 @pytest.mark.parametrize("r", [1.0, 2.0])
-def test_a_small_area_lamp_through_the_slab_is_a_cosine_lamp(r):
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_small_area_lamp_through_the_slab_is_a_cosine_lamp(r, kernels):
     """A square area lamp 2 cm wide facing down over the slab, 100 W: radiance P / (pi A), so it is a lamp of
     intensity (P / pi) cos theta1 in the direction theta1 its light leaves in; MNEE holds the sampled point and turns
     the pdf from the last interface into the lamp's area measure (Cycles' area_light_mnee_sample_update), which gives
@@ -310,11 +315,12 @@ def test_a_small_area_lamp_through_the_slab_is_a_cosine_lamp(r):
     scene = scene_with(slab(1.0, 1.5), area)
     theta1 = 0.0 if r == 0.0 else leaving_angle(r, 3.5, 0.5)
     expected = ALBEDO / math.pi * slab_irradiance(r, 100.0 / math.pi * math.cos(theta1), 3.5, 0.5)
-    got = floor_radiance(scene, r, samples=16)
+    got = floor_radiance(scene, r, samples=16, kernels=kernels)
     assert got == pytest.approx(expected, rel=2e-3)
 
 
-def test_a_small_sphere_lamp_through_the_slab_tends_to_the_point_lamp():
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_small_sphere_lamp_through_the_slab_tends_to_the_point_lamp(kernels):
     """A sphere lamp (Soft Falloff off), 1000 W, over the slab: MNEE holds the point sampled on its near side and
     turns its cone's pdf from the last interface (the cone about the sphere's centre) into the area measure at the
     point (Cycles' point_light_mnee_sample_update), which is off by O(R / d): 1 m off its foot, measured at 64
@@ -324,4 +330,4 @@ def test_a_small_sphere_lamp_through_the_slab_tends_to_the_point_lamp():
     lamp = PointLight(np.array([0.0, 0.0, 3.5]), 1000.0, radius=0.005, soft_falloff=False, caustics=True)
     scene = scene_with(slab(1.0, 1.5), lamp)
     expected = ALBEDO / math.pi * slab_irradiance(1.0, 1000.0 / (4.0 * math.pi), 3.5, 0.5)
-    assert floor_radiance(scene, 1.0, samples=16) == pytest.approx(expected, rel=2e-3)
+    assert floor_radiance(scene, 1.0, samples=16, kernels=kernels) == pytest.approx(expected, rel=2e-3)

@@ -6,9 +6,10 @@
  * projection back onto each object), and the path found replaces the light sample: the receiver's f cos towards the
  * first interface, the light's emission, the generalised geometry term (mnee_transfer) and each interface's
  * transmittance (mnee_interface), its shadow ray from the last interface to the light. Rare lanes: one scalar walk
- * per lane (direct.c's light-sampling block calls mnee_block). The same numbers as the Python reference; lamps
- * without extent only (mnee.compiled_walks: point and spot lamps of radius 0, suns of angle 0), whose light no BSDF
- * ray meets. Cycles' source: intern/cycles/kernel/integrator/mnee.h. */
+ * per lane (direct.c's light-sampling block calls mnee_block). The same numbers as the Python reference, for the
+ * lights it walks (mnee.walks: point and spot lamps, area lamps with a spread, suns); path.c culls a caster's BSDF
+ * rays on a path that left a receiver from finding a caustics lamp (BlockHits.cull), whose light MNEE brings.
+ * Cycles' source: intern/cycles/kernel/integrator/mnee.h. */
 
 #define MNEE_MAX_ITERATIONS 64
 #define MNEE_MAX_INTERSECTION_COUNT 10
@@ -581,13 +582,13 @@ static int mnee_seed(const DirectSettings *ds, const Surface *sf, const double *
     return ch->c;
 }
 
-/* mnee.sample for one light sample of a point, spot or sun lamp without extent at hit h of H: where a path through
+/* mnee.sample for one light sample of a walked lamp (mnee.walks) at hit h of H: where a path through
  * the casters is found, f (3) its value before the light's colour and 1 / count, the shadow ray O, D, t from the last
  * interface to the light and `first` the direction from the receiver to its first interface; returns 1 then, else 0
- * (the ordinary light sample stays). L, distance, position, strength: the light sample. */
+ * (the ordinary light sample stays). L, distance, position, strength, color: the light sample. */
 static int mnee_sample(const DirectSettings *ds, const BlockHits *H, int64_t h, const LightRecord *light,
-                       const double *L, double distance, const double *position, double strength, const double *u_h,
-                       double *f, double *O, double *D, double *t_out, double *first)
+                       const double *L, double distance, const double *position, double strength, const double *color,
+                       const double *u_h, double *f, double *O, double *D, double *t_out, double *first)
 {
     const Surface *sf = H->s + h;
     int room = H->room < 1 ? 1 : (int)H->room;
@@ -622,13 +623,41 @@ static int mnee_sample(const DirectSettings *ds, const BlockHits *H, int64_t h, 
         double Dl[3];
         for (int k = 0; k < 3; k++) d[k] = position[k] - last->p[k];
         double tl = mn_unit(d, Dl);
-        LightSample ls;
-        double zero[3] = {0.0, 0.0, 0.0}, u0[2] = {0.0, 0.0};
-        ls.emitter = -1;
-        ls.hidden = 0;
-        sample_light(light, ds->context, last->p, zero, u0, &ls);
-        emitted = ls.strength * tl * tl;
-        for (int k = 0; k < 3; k++) light_Ng[k] = -Dl[k];
+        int kind = (int)light->kind;
+        int sphere = (kind == LIGHT_POINT || kind == LIGHT_SPOT) && light->radius > 0.0 && light->soft_falloff == 0;
+        if (kind == LIGHT_AREA || sphere) {
+            /* The light point held; its radiance towards the last vertex over the pdf of that direction there, in
+             * the light's area measure (Cycles' area_light_mnee_sample_update; point_light_mnee_sample_update's
+             * sphere: its cone's pdf times |cos| / t^2 at the point). */
+            LightHit seen;
+            int met = light_hit(light, last->p, Dl, tl * (1.0 + 1e-9) + 1e-9, &seen);
+            if (sphere) {
+                double r[3] = {position[0] - light->position[0], position[1] - light->position[1],
+                               position[2] - light->position[2]};
+                mn_unit(r, light_Ng);
+            } else {
+                for (int k = 0; k < 3; k++) light_Ng[k] = light->direction[k];
+            }
+            double pdf_area = met ? seen.pdf * fabs(-dot3(Dl, light_Ng)) / (tl * tl) : 0.0;
+            double colour = color[0] + color[1] + color[2];
+            double per_colour = met ? (seen.radiance[0] + seen.radiance[1] + seen.radiance[2])
+                                      / (colour > 1e-300 ? colour : 1e-300) : 0.0;
+            emitted = met && pdf_area > 0.0 ? per_colour / pdf_area : 0.0;
+        } else {
+            /* A point (or a disk facing the point) of the intensity it sends in the direction its light leaves: the
+             * lamp as a point at the sampled light point, its strength at the last vertex times t^2. */
+            LightRecord here = *light;
+            here.radius = 0.0;
+            here.delta = 1;
+            for (int k = 0; k < 3; k++) here.position[k] = position[k];
+            LightSample ls;
+            double zero[3] = {0.0, 0.0, 0.0}, u0[2] = {0.0, 0.0};
+            ls.emitter = -1;
+            ls.hidden = 0;
+            sample_light(&here, ds->context, last->p, zero, u0, &ls);
+            emitted = ls.strength * tl * tl;
+            for (int k = 0; k < 3; k++) light_Ng[k] = -Dl[k];
+        }
     }
     for (int k = 0; k < 3; k++) d[k] = ch.x[0].p[k] - I[k];
     double w0_len = mn_unit(d, w0);
@@ -682,10 +711,10 @@ static int mnee_sample(const DirectSettings *ds, const BlockHits *H, int64_t h, 
     return 1;
 }
 
-/* vertex.shadow_caustics for one SampleBlock of a caustics lamp (light->caustics) with `count` samples per hit: a
+/* vertex.shadow_caustics for one SampleBlock of a walked lamp (light->caustics bit 2) with `count` samples per hit: a
  * caster's samples from behind it (N.L < 0) are dropped; a receiver's samples in front of it walk, and where a path is
  * found the lane carries it instead (its f, weight, shadow ray and, for the light passes, L the direction to the
- * first interface), with no MIS (a lamp without extent). */
+ * first interface), with no MIS (as Cycles: the walk replaces the light sample). */
 static void mnee_block(SampleBlock *b, const BlockHits *H, const DirectSettings *ds, const LightRecord *light,
                        int64_t count)
 {
@@ -700,9 +729,10 @@ static void mnee_block(SampleBlock *b, const BlockHits *H, const DirectSettings 
         if ((flags & MNEE_CASTER) && behind) { b->keep[k] = 0.0; continue; }
         if (!(flags & MNEE_RECEIVER) || behind) continue;
         double u_h[2], position[3] = {b->position[0][k], b->position[1][k], b->position[2][k]};
-        double f[3], O[3], D[3], t, first[3];
+        double f[3], O[3], D[3], t, first[3], color[3] = {b->color[0][k], b->color[1][k], b->color[2][k]};
         sample_2d(stream, (int64_t)b->pixel[k], (int64_t)b->index[k], u_h);
-        if (!mnee_sample(ds, H, h, light, L, b->distance[k], position, b->strength[k], u_h, f, O, D, &t, first))
+        if (!mnee_sample(ds, H, h, light, L, b->distance[k], position, b->strength[k], color, u_h, f, O,
+                         D, &t, first))
             continue;
         for (int c = 0; c < 3; c++) {
             b->f[c][k] = f[c];

@@ -30,9 +30,8 @@ point held, its pdf from the last vertex in area measure) and sun lamps; area la
 Cycles) and the world are not walked (Primer warns).
 
 Cycles' source: intern/cycles/kernel/integrator/mnee.h (kernel_path_mnee_sample and what it calls), called from
-shade_surface.h integrate_surface_direct_light. Its compiled twin, core/integrators/mnee.c (one light sample at a time,
-the same numbers), walks lamps without extent only (compiled_walks: point and spot lamps of radius 0, suns of angle
-0); for the others the compiled kernels leave the casters' ordinary shadow (Primer warns).
+shade_surface.h integrate_surface_direct_light. Its compiled twin is core/integrators/mnee.c (one light sample at a
+time, the same numbers; the culling of a caster's BSDF rays in core/integrators/path.c).
 """
 from __future__ import annotations
 
@@ -80,13 +79,6 @@ def walks(light) -> bool:
     if kind == "AREA":                    # (Spread 0, a fixed direction in Cycles, is left out)
         return light.spread > 0.0 and light.area() > 0.0
     return kind == "SUN"
-
-
-def compiled_walks(light) -> bool:
-    """Whether the compiled kernels walk for light samples of `light` (core/integrators/mnee.c): a light `walks` for
-    that has no extent (point and spot lamps of radius 0, suns of angle 0), whose light no BSDF ray meets, so that
-    nothing has to be culled from the paths (PathState.caustics_cull)."""
-    return walks(light) and bool(getattr(light, "delta", False))
 
 
 def active(ctx) -> bool:
@@ -707,10 +699,10 @@ def sample(ctx, surface, shader, wo: np.ndarray, rows: np.ndarray, light, ls, u_
     return Result(done, value, shadows.ShadowRays(origins, directions, t_max), first)
 
 
-def notes(ctx, compiled: bool) -> list:
+def notes(ctx) -> list:
     """What a render of `ctx` leaves out of Cycles' shadow caustics (warnings, list of str): caustics lights that are
-    not walked (area lamps of Spread 0) and, where the compiled kernels render (`compiled`), the caustics lights
-    they do not walk (lamps with extent: compiled_walks)."""
+    not walked (area lamps of Spread 0), by either kernel (the compiled one, core/integrators/mnee.c, walks the same
+    lights as this reference)."""
     lights = [light for light in ctx.lights if getattr(light, "caustics", False)]
     if not lights or not len(ctx.geometry.instance_caustics):
         return []
@@ -718,14 +710,6 @@ def notes(ctx, compiled: bool) -> list:
     if not ((flags & CASTER).any() and (flags & RECEIVER).any()):
         return []
     out = []
-    if compiled:
-        lacking = sorted({getattr(light, "name", "light") for light in lights if walks(light)
-                          and not compiled_walks(light)})
-        if lacking:
-            out.append(f"shadow caustics: the compiled kernels walk Cycles' manifold next-event estimation only for "
-                       f"lamps without extent (point and spot lamps of radius 0, suns of angle 0): {', '.join(lacking)} "
-                       "cast their ordinary shadow through the casters (render with Kernels: NumPy, the Python "
-                       "reference, for their caustics)")
     left = sorted({getattr(light, "name", "light") for light in lights if not walks(light)})
     if left:
         out.append(f"shadow caustics: {', '.join(left)} (area lamps of Spread 0) are not walked; casters cast their "
