@@ -127,7 +127,7 @@ def lamp_crossing_notes(scene) -> list:
 def light_notes(obj) -> list:
     """Lamp settings that Primer does not model: a shadow caustics light (Cycles' manifold next-event estimation) of a
     kind core/integrators/mnee.py does not walk (area lamps of Spread 0). Point, spot (round or spheres), area and sun
-    lamps are walked by the Python reference; the compiled kernels warn at render time (mnee.notes)."""
+    lamps are walked by both kernels (core/integrators/mnee.py, mnee.c)."""
     light = obj.data
     cycles = getattr(getattr(getattr(obj, "original", obj), "data", light), "cycles", None)    # (as the user set it)
     notes = []

@@ -61,6 +61,8 @@ GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (c
                              "Offset multiplier (WorldGeometry.instance_terminator), NULL: none has its own"),
     ("ao_distance", ptr(F64), "(n,) each instance's own Fast GI AO Distance (WorldGeometry.instance_ao_distance, "
                               "0: the render's), NULL: none has its own"),
+    ("caustics", ptr(U8), "(n,) each instance's shadow caustics bits (WorldGeometry.instance_caustics: 1 casts, 2\n"
+                          "receives; core/integrators/mnee.c), NULL: no object has any"),
     ("origin", ptr(F64), "(3,) the world point the vertices are relative to (the Geometry node's Position adds it)"),
 ])
 
@@ -127,6 +129,10 @@ class GeometryTables:
         # The objects' own shadow terminator offsets, where some object has one (the terminator fix).
         if len(geometry.instance_terminator):
             self.record.terminator = c(geometry.instance_terminator, np.float64)
+            self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None
+        # The objects' shadow caustics switches, where some object has one (core/integrators/mnee.c).
+        if len(geometry.instance_caustics) and geometry.instance_caustics.any():
+            self.record.caustics = c(geometry.instance_caustics, np.uint8)
             self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None
         # The objects' own Fast GI AO Distance, where some object has one.
         if len(geometry.instance_ao_distance):

@@ -214,6 +214,8 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .clear_glass = params->clear_glass,
         .ao_bounces = (int)params->ao_bounces, .ao_factor = params->ao_factor, .ao_distance = params->ao_distance,
         .ao_additive_factor = params->ao_additive_factor, .ao_transmitter = &ao_transmitter,
+        .mnee = params->mnee != 0,
+        .mnee_limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->transmission_bounces},
     };
     if (ds.features) camera_lane_features(params, b, H, work, ds.back);
     /* The path tracer's bounce limits; the direct tracer's through transparent surfaces: no bounces but those. */

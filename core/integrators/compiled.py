@@ -22,6 +22,7 @@ from ..native import library, schema
 from ..native.schema import F64, I32, I64, out, ptr
 from . import features as features_
 from . import catcher as catcher_, lightgroups, lightpasses
+from . import mnee as mnee_
 from . import passes as passes_
 from .base import Cancelled, Context
 from .shadows import ShadowSettings
@@ -98,6 +99,8 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
                                 "weights times this (path.fast_gi_added); 0: off"),
     ("clamp_direct", F64, "sample clamping's caps (clamp.limits; inf: none)"),
     ("clamp_indirect", F64, ""),
+    ("mnee", I32, "1: the path tracer walks Shadow Caustics for the lights whose LightRecord.caustics is set "
+                  "(mnee.active; core/integrators/mnee.c)"),
     ("light_passes", I32, "1: sum the light passes (lightpasses.c) into ChunkOut.light"),
     ("light_groups", I32, "G: sum the light groups' light into ChunkOut.groups (lightgroups.py; 0: none)"),
     ("instance_groups", ptr(I32), "(n,) each Scene.instances entry's light group (-1: none), or NULL"),
@@ -295,7 +298,8 @@ class Compiled:
             ao_bounces=s.ao_bounces if s.ao_factor != 0.0 and s.integrator == "path" else 0,
             ao_factor=float(s.ao_factor), ao_distance=float(s.ao_distance),
             ao_additive_factor=float(s.ao_additive_factor) if s.integrator == "path" else 0.0,
-            light_passes=self.light_passes, split=bool(ctx.extra.get("catcher_split", False)))
+            light_passes=self.light_passes, split=bool(ctx.extra.get("catcher_split", False)),
+            mnee=s.integrator == "path" and mnee_.active(ctx))
         self.want_squares = bool(s.adaptive)
         self.features = bool(s.denoising_features)
         self.params.features = self.features

@@ -37,6 +37,7 @@ typedef struct {
     uint64_t mis_receiver[BLOCK];                /* and the light set of its object (Cycles' mis_ray_object) */
     uint8_t after_diffuse[BLOCK];                /* 1: that bounce was diffuse (the caustics switches) */
     uint8_t exiting[BLOCK];                      /* 1: it is a subsurface walk's exit (path.c; subsurface.c) */
+    uint8_t cull[BLOCK];                         /* 1: its rays find no caustics lamp (path.c; mnee.c), 0 elsewhere */
     int32_t seen_by[BLOCK];                      /* the kind of ray that reached it (HIDDEN_FROM_*, direct.ray_kind) */
     double held[BLOCK];                          /* per camera lane: the alpha holdouts take away (path.hold_out) */
     /* The light passes (lightpasses.c), where asked for: what a first hit gathers split by pass kind (not its
@@ -137,6 +138,7 @@ typedef struct {
     VolumeStack inside;                          /* the media it crosses (media.c; with media only) */
     double attenuation[3];                       /* what they let through to its hit (1 without media) */
     int ao;                                      /* 1: Fast GI's short ray: its path ends at its hit */
+    int cull;                                    /* 1: it finds no caustics lamp (BlockHits.cull of its hit) */
 } PathRay;
 
 /* direct.nearest_seen for lane k of a packet whose rays are of the kind `bit` (HIDDEN_FROM_*): while the lane's
@@ -666,6 +668,8 @@ typedef struct {
     double ao_factor, ao_distance;   /* Fast GI: the world's scale for short rays, and how far they look */
     double ao_additive_factor;  /* Fast GI (Add): ambient occlusion at every path vertex times this (0: off) */
     const Transmitter *ao_transmitter;   /* what Add's rays pass (transparent surfaces, no media) */
+    int mnee;                   /* 1: Shadow Caustics walk for caustics lamps (ChunkParams.mnee; mnee.c) */
+    int mnee_limits[3];         /* the bounce limits a walked chain must fit: Max, Diffuse, Transmission Bounces */
 } DirectSettings;
 
 /* vertex.fast_gi_ray for one ray carrying `path` (its counters past the bounce that sent it): whether it is Fast GI's
@@ -994,6 +998,10 @@ INLINE void link_block(SampleBlock *b, const BlockHits *H, const DirectSettings 
     }
 }
 
+/* Shadow caustics for a block of a caustics lamp's samples (mnee.c, included after this file). */
+static void mnee_block(SampleBlock *b, const BlockHits *H, const DirectSettings *ds, const LightRecord *light,
+                       int64_t count);
+
 NOINLINE static int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *embree_ticks)
 {
     const ShadowSettings *settings = ds->shadows;
@@ -1038,6 +1046,8 @@ NOINLINE static int64_t direct_light(BlockHits *H, const DirectSettings *ds, uin
                 for (int64_t k = 0; k < b.n; k++)
                     if (H->traced[b.hit[k]] && b.blockers[k] == ALL_SETS)   /* (shadow-linked: samples alone) */
                         b.weight[k] = b.weight[k] * power_heuristic(mis_samples(light) * b.pdf[k], b.pdf_bsdf[k]);
+            if (ds->mnee && ((int)light->caustics & 2) != 0 && ds->geometry->caustics != NULL)   /* (Shadow Caustics, mnee.c) */
+                mnee_block(&b, H, ds, light, count);
             uint64_t start = ticks();
             rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter, H,
                                   ds->clamping ? ds->caps : NULL, (double)count, ds->light_passes ? H->parts : NULL,
@@ -1072,6 +1082,7 @@ typedef struct {
     const VolumeStack *inside;        /* the media it crosses (with sigma), for a march through heterogeneous ones */
     double time;            /* its time in the shutter (its path's): where a moving emitter it hit is */
     int ao;                 /* 1: Fast GI's short ray: the world it escapes to is scaled by ds->ao_factor */
+    int cull;               /* 1: it finds no caustics lamp (a caster's ray on a path that left a receiver: mnee.c) */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -1134,6 +1145,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         if (light->hittable == 0.0 || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_DISTANT | LIGHT_FLAG_AREA))
             continue;                                   /* (emitters and the world are found below) */
         if (((int)light->hidden & ray->seen_as) != 0) continue;     /* a lamp's Ray Visibility */
+        if (ray->cull && ((int)light->caustics & 1) != 0) continue; /* (Shadow Caustics: MNEE brings its light) */
         if (ray->seen_as != HIDDEN_FROM_CAMERA && !in_sets(light->light_membership, ray->receiver))
             continue;                                               /* Light Linking (camera rays see it) */
         /* Multiple Importance off: light samples alone find it; camera rays still see a lamp (not a sun disk) */
@@ -1399,6 +1411,7 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->path = after[k];
                 r->receiver = receiver;
                 r->ao = ao[k];
+                r->cull = ds->mnee ? H->cull[owner[k]] : 0;
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = weight[c]; }
                 for (int c = 0; c < 3; c++) { r->mis_O[c] = P[c]; r->mis_N[c] = N != NULL ? N[c] : 0.0; }
                 for (int c = 0; c < 3; c++) r->attenuation[c] = attenuation[c];
@@ -1422,7 +1435,8 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                                   (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k), pdf_b, use_mis,
                                   kinds[k] == HIDDEN_FROM_CAMERA, P, N, kinds[k], after + k, receiver,
                                   ds->media != NULL ? sigma : NULL, emission, &next,
-                                  ds->media != NULL ? &inside : NULL, H->s[owner[k]].time, ao[k]};
+                                  ds->media != NULL ? &inside : NULL, H->s[owner[k]].time, ao[k],
+                                  ds->mnee ? H->cull[owner[k]] : 0};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

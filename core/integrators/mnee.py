@@ -30,7 +30,8 @@ point held, its pdf from the last vertex in area measure) and sun lamps; area la
 Cycles) and the world are not walked (Primer warns).
 
 Cycles' source: intern/cycles/kernel/integrator/mnee.h (kernel_path_mnee_sample and what it calls), called from
-shade_surface.h integrate_surface_direct_light. Python reference only: the compiled kernels do not walk (Primer warns).
+shade_surface.h integrate_surface_direct_light. Its compiled twin is core/integrators/mnee.c (one light sample at a
+time, the same numbers; the culling of a caster's BSDF rays in core/integrators/path.c).
 """
 from __future__ import annotations
 
@@ -698,10 +699,10 @@ def sample(ctx, surface, shader, wo: np.ndarray, rows: np.ndarray, light, ls, u_
     return Result(done, value, shadows.ShadowRays(origins, directions, t_max), first)
 
 
-def notes(ctx, compiled: bool) -> list:
+def notes(ctx) -> list:
     """What a render of `ctx` leaves out of Cycles' shadow caustics (warnings, list of str): caustics lights that are
-    not walked (area lamps of Spread 0) and, where the compiled kernels render (`compiled`),
-    the walk itself, which only the Python reference takes."""
+    not walked (area lamps of Spread 0), by either kernel (the compiled one, core/integrators/mnee.c, walks the same
+    lights as this reference)."""
     lights = [light for light in ctx.lights if getattr(light, "caustics", False)]
     if not lights or not len(ctx.geometry.instance_caustics):
         return []
@@ -709,9 +710,6 @@ def notes(ctx, compiled: bool) -> list:
     if not ((flags & CASTER).any() and (flags & RECEIVER).any()):
         return []
     out = []
-    if compiled:
-        out.append("shadow caustics: the compiled kernels do not walk Cycles' manifold next-event estimation; casters "
-                   "cast their ordinary shadow (render with Kernels: NumPy, the Python reference, for the caustics)")
     left = sorted({getattr(light, "name", "light") for light in lights if not walks(light)})
     if left:
         out.append(f"shadow caustics: {', '.join(left)} (area lamps of Spread 0) are not walked; casters cast their "

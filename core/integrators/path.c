@@ -143,7 +143,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         }
         FindingRay finding = {O, D, hit, hit ? t : t_max, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O,
                               r->mis_N, (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission,
-                              NULL, ds->media != NULL ? &inside : NULL, r->time, r->ao};
+                              NULL, ds->media != NULL ? &inside : NULL, r->time, r->ao, r->cull};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         double f = clamp_scale(light_L, throughput, cap, 1.0);
@@ -470,7 +470,18 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
             for (int p = 0; p < PASS_KINDS; p++) H->shares[h][p][0] = H->shares[h][p][1] = H->shares[h][p][2] = 0.0;
     }
     BlockHits *current = H, *next = &work->a;
+    uint8_t ancestor[BLOCK];                    /* per camera lane: its path left a receiver (shadow caustics, mnee.c) */
+    for (int64_t k = 0; k < BLOCK; k++) ancestor[k] = 0;
     for (int vertex = 0; current->m > 0; vertex++) {
+        /* Shadow caustics: a caster's BSDF ray on a path that left a receiver finds no caustics lamp (Cycles'
+         * PATH_MNEE_CULL_LIGHT_CONNECTION after PATH_MNEE_RECEIVER_ANCESTOR): MNEE brings that light. */
+        if (ds->mnee)
+            for (int64_t h = 0; h < current->m; h++) {
+                int flags = mn_flags(ds->geometry, owner_of(ds->geometry, current->geometry[h], current->prim[h],
+                                                            current->instance[h]));
+                current->cull[h] = (flags & MNEE_CASTER) != 0 && ancestor[current->lane[h]];
+                if (flags & MNEE_RECEIVER) ancestor[current->lane[h]] = 1;
+            }
         /* a. What the vertex gathers: light samples, and the light its BSDF ray finds. */
         ds->dimension = (int64_t)vertex * VERTEX_DIMENSIONS;
         choose_bsdf_rays(current, ds);

@@ -200,7 +200,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     FindingRay finding = {P, wi, hit, hit ? t : reach, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
                           instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, HIDDEN_FROM_VOLUME_SCATTER, &scatter, 0,
                           sigma_t, emission, NULL,
-                          inside, STILL_TIME, ao};        /* (a render with media moves no object) */
+                          inside, STILL_TIME, ao, 0};     /* (a render with media moves no object; no caster culls it) */
     gather_light(ds, &finding, light_L, groups);
     for (int c = 0; c < 3; c++) L[c] += light_L[c];
     if (!hit || ds->transmitter == NULL || onward != NULL) return rays;
@@ -221,6 +221,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     r.path = scatter;
     r.receiver = 0;                                      /* (a medium receives as the default set: Light Linking) */
     r.ao = ao;
+    r.cull = 0;                                          /* (a medium scatters: no caster culls its ray, mnee.c) */
     stretch_transmittance(marched, sigma_t, t, r.attenuation);
     for (int c = 0; c < 3; c++) { r.O[c] = P[c]; r.D[c] = wi[c]; r.weight[c] = 1.0; r.mis_O[c] = P[c]; r.mis_N[c] = 0.0; }
     double behind[3] = {0.0, 0.0, 0.0};

@@ -150,6 +150,9 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("group", I32, "its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group)"),
     ("light_membership", U64, "the receiver sets it lights (core/lights/linking.py; emitters: by object)"),
     ("shadow_membership", U64, "the blocker shadow sets that cast its shadows; emitters: by object"),
+    ("caustics", I32, "Shadow Caustics (core/integrators/mnee.c): bit 1, a caustics light (a caster's BSDF rays on a path\n"
+                      "that left a receiver do not find it); bit 2, the compiled kernels walk for its light samples\n"
+                      "(mnee.walks)"),
     ("has_ies", I32, "point, spot and area lamps: 1 when an IES Texture scales the light leaving it (core/lights/ies.py)"),
     ("has_falloff", I32, "point, spot and area lamps: 1 when a Light Falloff node scales the light by the distance t to the\n"
                          "lit point (Light.falloff): t^falloff_power, times t^2 / (falloff_smooth + t^2) where that is > 0"),
@@ -360,6 +363,8 @@ class Light:
         power, smooth = getattr(self, "falloff", (0, 0.0))
         if power != 0 or smooth > 0.0:
             record.has_falloff, record.falloff_power, record.falloff_smooth = 1, float(power), float(smooth)
+        from ..integrators import mnee
+        record.caustics = (1 if getattr(self, "caustics", False) else 0) | (2 if mnee.walks(self) else 0)
         self.pack_fields(record)
         return record
 

@@ -792,6 +792,8 @@ its Object and Instancer attributes (geometry.instance_info) */
     const double *terminator;               /* (n, 2) each instance's Shadow Terminator Geometry Offset (-1: the render's) and Shading
 Offset multiplier (WorldGeometry.instance_terminator), NULL: none has its own */
     const double *ao_distance;              /* (n,) each instance's own Fast GI AO Distance (WorldGeometry.instance_ao_distance, 0: the render's), NULL: none has its own */
+    const uint8_t *caustics;                /* (n,) each instance's shadow caustics bits (WorldGeometry.instance_caustics: 1 casts, 2
+receives; core/integrators/mnee.c), NULL: no object has any */
     const double *origin;                   /* (3,) the world point the vertices are relative to (the Geometry node's Position adds it) */
 };
 
@@ -860,6 +862,7 @@ struct ChunkParams {
     double ao_additive_factor;              /* Fast GI (Add): every path vertex adds ambient occlusion times its diffuse closures' weights times this (path.fast_gi_added); 0: off */
     double clamp_direct;                    /* sample clamping's caps (clamp.limits; inf: none) */
     double clamp_indirect;
+    int32_t mnee;                           /* 1: the path tracer walks Shadow Caustics for the lights whose LightRecord.caustics is set (mnee.active; core/integrators/mnee.c) */
     int32_t light_passes;                   /* 1: sum the light passes (lightpasses.c) into ChunkOut.light */
     int32_t light_groups;                   /* G: sum the light groups' light into ChunkOut.groups (lightgroups.py; 0: none) */
     const int32_t *instance_groups;         /* (n,) each Scene.instances entry's light group (-1: none), or NULL */
@@ -1007,6 +1010,9 @@ radiance, bottom to top, where the others see `radiance` x color */
     int32_t group;                          /* its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group) */
     uint64_t light_membership;              /* the receiver sets it lights (core/lights/linking.py; emitters: by object) */
     uint64_t shadow_membership;             /* the blocker shadow sets that cast its shadows; emitters: by object */
+    int32_t caustics;                       /* Shadow Caustics (core/integrators/mnee.c): bit 1, a caustics light (a caster's BSDF rays on a path
+that left a receiver do not find it); bit 2, the compiled kernels walk for its light samples
+(mnee.walks) */
     int32_t has_ies;                        /* point, spot and area lamps: 1 when an IES Texture scales the light leaving it (core/lights/ies.py) */
     int32_t has_falloff;                    /* point, spot and area lamps: 1 when a Light Falloff node scales the light by the distance t to the
 lit point (Light.falloff): t^falloff_power, times t^2 / (falloff_smooth + t^2) where that is > 0 */
@@ -1431,15 +1437,15 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(1445416722100176955);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(5235985966492169627);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7607883560999792480);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3383215655614875185);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(8586915803200790944);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(1559034948338915945);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(5818071452973916127);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);

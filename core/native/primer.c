@@ -39,6 +39,7 @@
 #include "../integrators/subsurface.c"   /* the subsurface random walk inside a mesh (direct.c calls it) */
 #include "../integrators/lightpasses.c"
 #include "../integrators/direct.c"
+#include "../integrators/mnee.c"          /* shadow caustics: the manifold walk for one light sample (direct.c calls it) */
 #include "../integrators/features.c"
 #include "../integrators/passes.c"
 #include "../integrators/path.c"

@@ -708,7 +708,7 @@ def render(scene: Scene, settings: RenderSettings,
                      or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable"))
     compiled = Compiled(ctx, ctx.extra["background"]) if not numpy_because else None
     stats.kernels = "compiled" if compiled else f"numpy ({numpy_because})"
-    stats.warnings.extend(note for note in mnee_.notes(ctx, compiled is not None) if note not in stats.warnings)
+    stats.warnings.extend(note for note in mnee_.notes(ctx) if note not in stats.warnings)
     # 2. The passes, and the pixels to render (wholly outside a fisheye's image circle: opaque black).
     passes = (adaptive.pass_sizes(settings.samples, settings.adaptive_min_samples) if settings.adaptive
               else [settings.samples])
