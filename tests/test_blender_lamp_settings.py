@@ -181,12 +181,12 @@ for name in {cases!r}:
                                                    "rotation_euler": (0.3, 0.0, 0.0)}})
     elif name == "shadow caustics":
         # A smooth glass ball over the floor (a caustics caster and receiver), a point lamp with Shadow Caustics:
-        # Cycles' MNEE, Primer's Python reference (the compiled kernels do not walk), path traced.
+        # Cycles' MNEE, Primer's compiled kernels (core/integrators/mnee.c, the twin of mnee.py), path traced.
         import bmesh
         primer_settings = (scene.primer.integrator, scene.primer.max_bounces, scene.primer.diffuse_bounces,
                            scene.primer.glossy_bounces, scene.primer.transmission_bounces, scene.primer.kernels)
         scene.primer.integrator, scene.primer.max_bounces, scene.primer.diffuse_bounces = "PATH", 4, 1
-        scene.primer.glossy_bounces, scene.primer.transmission_bounces, scene.primer.kernels = 1, 4, "NUMPY"
+        scene.primer.glossy_bounces, scene.primer.transmission_bounces, scene.primer.kernels = 1, 4, "COMPILED"
         mesh = bpy.data.meshes.new("Ball")
         bm = bmesh.new()
         bmesh.ops.create_uvsphere(bm, u_segments=64, v_segments=32, radius=0.8)
@@ -369,7 +369,8 @@ def test_a_narrow_spread_lamp_renders_as_cycles(all_cases):
 def test_shadow_caustics_through_a_glass_ball_render_as_cycles(all_cases):
     """A smooth glass ball (radius 0.8, 64 x 32 faces) over the floor, a point lamp with Shadow Caustics, path traced
     (4 bounces, 1 diffuse): Cycles finds the lamp's light focused through the ball by manifold next-event estimation,
-    and so does Primer's Python reference (core/integrators/mnee.py), with no warning; the lamp's, ball's and floor's
+    and so do Primer's compiled kernels (core/integrators/mnee.c; its Python reference mnee.py is held to them in
+    tests/test_mnee.py), with no warning; the lamp's, ball's and floor's
     switches are read."""
     case = run_cases(all_cases, ["shadow caustics"])["shadow caustics"]
     print(case["rel_mse"], case["primer_mean"], case["cycles_mean"])
