@@ -847,6 +847,7 @@ struct ChunkParams {
     const PassTables *passes;               /* the first-hit passes asked for (passes.c), or NULL */
     const MediaTables *media;               /* the render's homogeneous media (core/volumes/media.c), or NULL: none */
     const void *catcher;                    /* the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher */
+    int32_t cones;                          /* 1: some program reads a ray's cone (rays.cones_read: a Bump, Ray Footprint, Pixel Size), so camera rays carry theirs; 0: they carry UNKNOWN_CONE, which nothing reads (chunk.c camera_ray_cone) */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -1410,7 +1411,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(1445416722100176955);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7607883560999792480);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(2031733600485699727);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4385592526559410154);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
