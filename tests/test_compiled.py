@@ -584,6 +584,105 @@ def test_bumps_and_pixel_size_wires_under_panoramic_cameras_render_alike_in_both
     assert_same_render(compiled, reference)
 
 
+def with_cone_readers(scene: Scene, bump: bool = True, wire: str = "pixel_size") -> Scene:
+    """lit_scene `scene` with its floor's Diffuse bumped by a sine of x (Filter Width 1: steps of the ray's footprint,
+    where `bump`) and its sphere an emitting Wireframe of Size 1.5 (wire "pixel_size": in pixels, which reads the
+    footprint; "world": in scene units, which does not; "": no wire)."""
+    from core.materials import Material
+    from core.materials.graph import GraphNode, Link
+    x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(GraphNode("GEOMETRY", {}, {}), "Position")}), "X")
+    height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": Link(GraphNode(
+        "MATH", {"operation": "MULTIPLY"}, {"0": x, "1": 6.0}), "Value")}), "Value")
+    inputs = {"color": np.array([0.8, 0.7, 0.6])}
+    if bump:
+        inputs["normal"] = Link(GraphNode("BUMP", {"invert": False, "filter_width": 1.0},
+                                          {"Strength": 1.0, "Distance": 0.3, "Height": height}), "Normal")
+    else:
+        inputs["color"] = Link(GraphNode("COMBINE_XYZ", {}, {"X": height, "Y": 0.5, "Z": 0.5}), "Vector")
+    scene.materials[0] = Material(name="Floor", nodes=[("DIFFUSE", (0.8, 0.7, 0.6), inputs)])
+    if wire:
+        fac = Link(GraphNode("WIREFRAME", {"pixel_size": wire == "pixel_size"}, {"Size": 1.5}), "Fac")
+        color = Link(GraphNode("COMBINE_XYZ", {}, {"X": fac, "Y": 0.4, "Z": 0.9}), "Vector")
+        scene.materials[1] = Material(name="Wire", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {"color": color})])
+    return scene
+
+
+@pytest.mark.parametrize("bump, wire, reads", [(False, "", False), (False, "world", False), (True, "", True),
+                                               (False, "pixel_size", True), (True, "pixel_size", True)])
+def test_a_render_carries_camera_ray_cones_only_where_a_program_reads_them(bump, wire, reads):
+    """rays.cones_read (the compiled kernel's ChunkParams.cones): a render needs its camera rays' cones where one of its
+    programs holds a Bump (its step is the ray's footprint) or a Pixel Size Wireframe (its width is), not for plain
+    Diffuse materials, a texture that reads no footprint (a sine of x into the colour) or a Wireframe in scene units."""
+    from core.integrators.rays import cones_read
+    scene = with_cone_readers(lit_scene(LIGHTS["sun"]), bump, wire)
+    settings = RenderSettings(width=8, height=8, samples=1)
+    assert cones_read(render.prepare(scene, settings)) == reads
+    assert cones_read(render.prepare(lit_scene(LIGHTS["sun"]), settings)) is False
+
+
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_skipping_the_camera_ray_cones_of_a_scene_that_reads_none_changes_no_pixel(integrator, monkeypatch):
+    """A scene no program of which reads a ray's cone (Diffuse surfaces, a sine texture, a Wireframe in scene units)
+    renders bit for bit the same in the compiled kernel whether its camera rays carry their cones or not
+    (ChunkParams.cones forced on by rays.cones_read)."""
+    from core.integrators import rays
+    scene = with_cone_readers(lit_scene(LIGHTS["area_rect"]), bump=False, wire="world")
+    settings = RenderSettings(width=24, height=16, samples=2, integrator=integrator, max_bounces=2, kernels="compiled")
+    assert rays.cones_read(render.prepare(scene, settings)) is False
+    skipped = render.render(scene, settings)
+    monkeypatch.setattr(rays, "cones_read", lambda ctx: True)
+    carried = render.render(scene, settings)
+    assert skipped.stats.kernels == carried.stats.kernels == "compiled"
+    np.testing.assert_array_equal(skipped.image, carried.image)
+
+
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+@pytest.mark.parametrize("width", [1.0, 0.3])
+def test_a_bump_in_the_compiled_kernel_differences_its_height_over_the_camera_rays_footprint(integrator, width,
+                                                                                              monkeypatch):
+    """The compiled kernel's camera rays carry their cones where a Bump reads them (rays.cones_read): a flat plane
+    facing up under an orthographic camera 2 wide (8 pixels: each camera ray's footprint f = 1/4), a white Diffuse
+    whose normal is a Bump (Distance D = 1/2, Filter Width w) of the height sin(4 x), lit by a sun of strength pi
+    straight down, is the bumped normal's z: Cycles steps both x by s = f w / sqrt 2 (dPdx, dPdy = f a, f b along
+    make_orthonormals of z), so z = w f / sqrt((w f)^2 + 2 D^2 (sin 4 (x + s) - sin 4 x)^2) (tests/test_input_nodes.py's
+    closed form, for any footprint). A Gaussian filter 1/10000 of a pixel wide keeps each jittered sample within
+    1.5e-4 pixels of its pixel's centre: the image is the closed form there within that times its slope. Without the
+    cones (a Bump then steps along the triangle's edges) it would be off by far more."""
+    from conftest import ortho_down
+    from core.integrators import rays
+    from core.materials import Material
+    from core.materials.graph import GraphNode, Link
+    size, f, D = 8, 0.25, 0.5
+    x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(GraphNode("GEOMETRY", {}, {}), "Position")}), "X")
+    height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": Link(GraphNode(
+        "MATH", {"operation": "MULTIPLY"}, {"0": x, "1": 4.0}), "Value")}), "Value")
+    normal = Link(GraphNode("BUMP", {"invert": False, "filter_width": width},
+                            {"Strength": 1.0, "Distance": D, "Height": height}), "Normal")
+    scene = Scene(camera=ortho_down(height=10.0, scale=2.0))
+    scene.materials.append(Material(name="Bumped", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {"color": np.ones(3),
+                                                                                        "normal": normal})]))
+    scene.add_mesh(primitives.plane(12.0), materials=np.array([0]))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=math.pi))
+    settings = RenderSettings(width=size, height=size, samples=4, kernels="compiled", integrator=integrator,
+                              max_bounces=0, pixel_filter="GAUSSIAN", filter_width=1e-4)
+    result = render.render(scene, settings)
+    assert result.stats.kernels == "compiled"
+    s = f * width / math.sqrt(2.0)
+
+    def z(x):
+        """The bumped normal's z at x (the closed form)."""
+        return width * f / np.sqrt((width * f) ** 2 + 2.0 * D * D * (np.sin(4.0 * (x + s)) - np.sin(4.0 * x)) ** 2)
+
+    xs = -1.0 + (np.arange(size) + 0.5) * 2.0 / size
+    fine = np.linspace(-1.5, 1.5, 300001)
+    tolerance = np.abs(np.gradient(z(fine), fine)).max() * 1.5e-4 * 2.0 / size + 1e-6
+    expected = np.tile(z(xs), (size, 1))
+    np.testing.assert_allclose(result.image[..., 0], expected, rtol=0.0, atol=tolerance)
+    monkeypatch.setattr(rays, "cones_read", lambda ctx: False)
+    skipped = render.render(scene, settings).image[..., 0]
+    assert np.abs(skipped - expected).max() > 100.0 * tolerance
+
+
 def test_a_displacement_and_bump_bumps_over_the_unmoved_surface_alike_in_both_kernels():
     """Displacement and Bump: the floor and box move along z by a sine of the world x and their bump (the same offset
     as a height) is evaluated over the surface before it moved and in object space (graph.undisplaced_point: the

@@ -5,15 +5,11 @@
  * rays live in the cache and on the stack, and its samples go straight into their pixels' sums. */
 
 /* rays.camera_cones: the ray cone camera ray `lane` of block b leaves with from its camera-relative origin O (graph.c
- * camera_cone in the camera's frame, made of the camera record): its footprint there into *cone, its widening into
+ * camera_cone in the camera's frame, made of the camera record c): its footprint there into *cone, its widening into
  * *spread; under a panoramic camera camera.c panorama_cone at the sample's (u, v) (the pinhole's, as Cycles). */
-static void camera_ray_cone(const ChunkParams *params, const CameraBlock *b, int64_t lane, const double *O,
-                            double *cone, double *spread)
+NOINLINE static void camera_cone_of(const ChunkParams *params, const CameraRecord *c, const CameraBlock *b,
+                                    int64_t lane, const double *O, double *cone, double *spread)
 {
-    const CameraRecord *c = params->camera;
-    *cone = UNKNOWN_CONE;
-    *spread = 0.0;
-    if (c == NULL) return;
     if (c->kind != CAMERA_PERSP && c->kind != CAMERA_ORTHO) {
         double raster_x = b->column[lane] + b->u[0][lane], raster_y = b->row[lane] + b->u[1][lane];
         double u = raster_x / (double)params->width + c->shift_x;
@@ -27,6 +23,17 @@ static void camera_ray_cone(const ChunkParams *params, const CameraBlock *b, int
         P[i] = (c->rotation[i] * (O[0] - c->eye[0]) + c->rotation[3 + i] * (O[1] - c->eye[1]))
                + c->rotation[6 + i] * (O[2] - c->eye[2]);
     *cone = camera_cone(P, f, spread);
+}
+
+/* The ray cone camera ray `lane` of block b carries (graph.LightPath cone, spread): camera_cone_of where some program
+ * of the render reads a cone (params->cones: rays.cones_read) and there is a camera; else UNKNOWN_CONE and 0, which
+ * nothing then reads. */
+INLINE void camera_ray_cone(const ChunkParams *params, const CameraBlock *b, int64_t lane, const double *O,
+                            double *cone, double *spread)
+{
+    *cone = UNKNOWN_CONE;
+    *spread = 0.0;
+    if (params->cones && params->camera != NULL) camera_cone_of(params, params->camera, b, lane, O, cone, spread);
 }
 
 /* The media each camera lane of block b starts in (rays.camera_media), into H->lane_inside and lane_start, with the

@@ -112,6 +112,8 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("catcher", ptr(), "the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher"),
     ("split", I32, "1: the catcher-only scene's (catcher.py catcher_split): camera rays cross no medium to their "
                    "catcher and go on from it in the media the camera is in"),
+    ("cones", I32, "1: some program reads a ray's cone (rays.cones_read: a Bump, Ray Footprint, Pixel Size), so camera "
+                   "rays carry theirs; 0: they carry UNKNOWN_CONE, which nothing reads (chunk.c camera_ray_cone)"),
 ], tables=("INTEGRATOR",))
 
 ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
@@ -251,7 +253,7 @@ class Compiled:
         from ..lights.world import WorldTables
         from .clamp import limits
         from .path import caustics_bits, roulette_from
-        from .rays import clear_glass_threshold
+        from .rays import clear_glass_threshold, cones_read
         s = ctx.settings
         geometry = ctx.geometry
         self.tracer = geometry.tracer
@@ -299,7 +301,7 @@ class Compiled:
             ao_factor=float(s.ao_factor), ao_distance=float(s.ao_distance),
             ao_additive_factor=float(s.ao_additive_factor) if s.integrator == "path" else 0.0,
             light_passes=self.light_passes, split=bool(ctx.extra.get("catcher_split", False)),
-            mnee=s.integrator == "path" and mnee_.active(ctx))
+            mnee=s.integrator == "path" and mnee_.active(ctx), cones=cones_read(ctx))
         self.want_squares = bool(s.adaptive)
         self.features = bool(s.denoising_features)
         self.params.features = self.features

@@ -141,6 +141,23 @@ def camera_cones(ctx: Context, O: np.ndarray, D: np.ndarray) -> tuple:
     return graph_.camera_cones(P, np.asarray(frame, np.float64))
 
 
+def cones_read(ctx: Context) -> bool:
+    """Whether anything in the render reads a ray's cone (graph.reads_cone of one of its programs: a Bump, a Ray
+    Footprint, Wireframe's Pixel Size), so that camera rays must carry theirs (camera_cones; the compiled kernels
+    skip them where not: ChunkParams.cones). Every program counts: the materials' (which also give textured
+    emitters' and hair's), the world's (what escaping rays run with their path, its AOVs), the lamps' and the
+    media's (those two run with a cone of 0 of their own, lamp_graph.c and field.c: counted all the same, so
+    that a reader is never missed)."""
+    materials, layout = ctx.materials, ctx.geometry.attribute_layout
+    programs = [materials.program(row, layout) for row in range(len(materials.shaders))]
+    world = ctx.extra.get("world_light")
+    programs += [getattr(world, "seen", None), ctx.extra.get("world_aovs")]
+    programs += [getattr(light, "lamp_nodes", None) for light in ctx.lights]
+    media = ctx.extra.get("media")
+    programs += list(media.fields) if media is not None else []
+    return any(graph_.reads_cone(getattr(p, "program", p)) for p in programs)
+
+
 def clear_glass_threshold(settings) -> float:
     """Film > Transparent Glass as Cycles' kernel compares it (transparent_roughness_squared_threshold): the roughness
     threshold to the fourth power, against a lobe's alpha_x alpha_y; -1 (off) without a transparent film."""

@@ -2093,6 +2093,20 @@ codes, registers and constants.) emission_ops, emission_nodes: what a light samp
 ], tables=("OP",))
 
 
+# Ops that read the ray's cone (graph.LightPath cone, spread): Bump's step and its OFFSET points (bump_differentials),
+# the Ray Footprint and Wireframe's Pixel Size (ray_footprint: the path's cone after a bounce, and under a panoramic
+# camera). A render none of whose programs holds one skips the camera rays' cones in C (rays.cones_read).
+CONE_OPS = ("BUMP", "OFFSET", "FOOTPRINT", "PIXEL_SIZE")
+
+
+def reads_cone(program: Optional[Program]) -> bool:
+    """Whether `program` (or None: no program) holds an op of CONE_OPS, which reads the path's ray cone."""
+    if program is None or len(program.ops) == 0:
+        return False
+    codes = np.asarray(program.ops, np.float64).reshape(len(program.ops), -1)[:, 0].astype(np.int64)
+    return bool(np.isin(codes, [OP[name] for name in CONE_OPS]).any())
+
+
 # Ops that write no register but change what the ops after them read (the bump's point, the surface before it moved,
 # Set Normal's normal): `live_ops` keeps them always.
 STATE_OPS = ("OFFSET", "UNDISPLACED", "SET_NORMAL")
