@@ -872,11 +872,8 @@ struct ChunkParams {
     const PassTables *passes;               /* the first-hit passes asked for (passes.c), or NULL */
     const MediaTables *media;               /* the render's homogeneous media (core/volumes/media.c), or NULL: none */
     const void *catcher;                    /* the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher */
-<<<<<<< HEAD
     int32_t split;                          /* 1: the catcher-only scene's (catcher.py catcher_split): camera rays cross no medium to their catcher and go on from it in the media the camera is in */
-=======
     int32_t cones;                          /* 1: some program reads a ray's cone (rays.cones_read: a Bump, Ray Footprint, Pixel Size), so camera rays carry theirs; 0: they carry UNKNOWN_CONE, which nothing reads (chunk.c camera_ray_cone) */
->>>>>>> cone-skip
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -1443,11 +1440,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(5235985966492169627);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7607883560999792480);
-<<<<<<< HEAD
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(8586915803200790944);
-=======
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4385592526559410154);
->>>>>>> cone-skip
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4632787502901643001);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
