@@ -113,3 +113,20 @@ def test_each_scattering_event_is_a_bounce_that_max_bounces_caps(max_bounces):
     result = render(scene, settings)
     assert result.stats.kernels == "compiled"
     np.testing.assert_allclose(result.image[..., :3], expected, rtol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_white_fog_inside_a_glowing_shell_sends_the_shells_radiance_once(kernels):
+    """A world fog that absorbs nothing (density 0.5, mean free path 2) filling a closed box 8 wide whose faces emit
+    radiance 1 and reflect nothing, the camera inside: in equilibrium the radiance is 1 everywhere and in every
+    direction, and Volume Bounces 64 leave out only paths of more scattering events than they ever make here. The
+    paths that scatter along camera rays and reach a face had its emission found by their phase ray's MIS (the face
+    adds none of its own there: counted twice, about 2); within 3 % at 256 samples (the mean's standard error about
+    1 %). With no Volume Bounces the light scattered more than once is missing."""
+    scene = Scene(camera=camera())
+    scene.world = World(color=np.zeros(3), volume=[("SCATTER", 1.0, {"color": np.ones(3), "density": 0.5,
+                                                                      "anisotropy": 0.0})])
+    scene.materials.append(Material(name="Glow", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": (1.0, 1.0, 1.0)})]))
+    scene.add_mesh(primitives.box((8.0, 8.0, 8.0)), materials=np.array([0]))
+    np.testing.assert_allclose(rendered(scene, 64, samples=256, kernels=kernels), np.ones(3), rtol=0.03)
+    assert (rendered(scene, 0, samples=256, kernels=kernels) < 0.9).all()

@@ -431,3 +431,31 @@ def test_both_kernels_sample_a_volume_objects_grids_to_the_same_pixels():
     reference, compiled, stats = both(scene)
     assert stats.kernels == "compiled" and not unexpected(stats.warnings)
     assert_same_tracked_pixels(reference, compiled)
+
+
+@pytest.mark.parametrize("clamp", [0.0, 0.5])
+def test_both_kernels_see_a_glowing_floor_in_a_world_fog_with_volume_bounces_to_the_same_pixels(clamp):
+    """An Emission floor (radiance 1, reflecting nothing) under a scattering world fog around the camera, Volume
+    Bounces 2, with and without Clamp Direct (0.5): the camera sees the floor's emission through what a path that
+    passes to it carries on (0 where it scattered: volume.multiple_scattering's through, clamped through it), and a
+    path that scattered and reached the floor adds no emission of its own there (its phase ray found it). Both
+    kernels to the same pixels and light groups, the same shadow rays."""
+    scene = Scene(camera=Camera.look_at((0.0, -4.0, 2.0), (0.0, 0.0, 0.0)))
+    scene.materials.append(Material(name="Glow", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": np.ones(3)})]))
+    scene.add_mesh(primitives.plane(12.0), materials=np.array([0]))
+    scene.lights.append(PointLight(position=np.array([1.0, -1.0, 2.5]), power=100.0))
+    scene.world = World(color=np.zeros(3), volume=[("SCATTER", 1.0, {"color": np.full(3, 0.9), "density": 0.3,
+                                                                      "anisotropy": 0.0})])
+    scene.lightgroups = {"lights": ["Point"], "instances": ["Floor"], "world": ""}
+    settings = {"width": 16, "height": 12, "samples": 4, "integrator": "path", "max_bounces": 4,
+                "volume_bounces": 2, "sample_clamp_direct": clamp, "light_groups": ("Floor", "Point")}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    assert_same_pixels(reference.image, compiled.image)
+    groups = [name for name in reference.aux if name.startswith("lightgroup")]
+    assert len(groups) == 2
+    for name in groups:
+        assert reference.aux[name].max() > 0.01
+        np.testing.assert_allclose(compiled.aux[name], reference.aux[name], rtol=1e-6, atol=4e-7, err_msg=name)

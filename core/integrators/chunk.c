@@ -293,18 +293,26 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
             if (ds.light_passes) add_scattered(work->lane_light[lane], H->lane_scattered[lane], 0, volume_only, 1);
         }
         if (chains) {
-            /* The camera's hits: what they emit seen through the media's transmittance, their paths going on with
-             * what a path passing to them carries (0 where it scattered). */
+            /* The camera's hits: their paths go on with what a path passing to them carries (0 where it
+             * scattered), and so does what they emit (path.py: the camera's hits' throughput is camera_through),
+             * clamped through it (block_hits clamped it through the media's transmittance instead: undone). */
             for (int64_t h = 0; h < H->m; h++) {
                 int64_t lane = H->lane[h];
+                double rescale = 1.0;
+                if (params->clamp_direct < INFINITY) {
+                    double before = clamp_scale(H->sd[h].emission, H->throughput + 3 * h, params->clamp_direct, 1.0);
+                    double after = clamp_scale(H->sd[h].emission, through[lane], params->clamp_direct, 1.0);
+                    rescale = before > 0.0 ? after / before : 0.0;
+                    for (int c = 0; c < 3; c++) H->L[3 * h + c] = H->sd[h].emission[c] * after;
+                }
                 if (lane_groups != NULL)            /* (and so their emission's light groups) */
                     for (int64_t i = 0; i < 3 * ds.groups; i++) {
-                        lane_groups[3 * lane * ds.groups + i] += H->throughput[3 * h + i % 3]
-                                                                 * H->groups[3 * h * ds.groups + i];
+                        lane_groups[3 * lane * ds.groups + i] += through[lane][i % 3]
+                                                                 * (H->groups[3 * h * ds.groups + i] * rescale);
                         H->groups[3 * h * ds.groups + i] = 0.0;
                     }
                 for (int c = 0; c < 3; c++) {
-                    H->lane_scattered[lane][c] += H->throughput[3 * h + c] * H->L[3 * h + c];
+                    H->lane_scattered[lane][c] += through[lane][c] * H->L[3 * h + c];
                     H->L[3 * h + c] = 0.0;
                     H->throughput[3 * h + c] = through[lane][c];
                 }

@@ -49,7 +49,9 @@ class PathState(NamedTuple):
     """What a path brings to the hits it reached (one row per hit, or one value for all).
 
     dimension: the shift of every sampling dimension at this vertex (VERTEX_DIMENSIONS per vertex)
-    vertex:    0 at the camera's hits, which add their own emission; later hits leave it to the ray that found them
+    vertex:    0 at the camera's hits, which add their own emission (not the surfaces that paths which scattered
+               along camera rays reach, flagged volume_scatter: their phase rays found it); later hits leave it to the
+               ray that found them
     light_path: the paths that reached the hits (graph.LightPaths of m rows: the flags of the rays that found them
                and the bounces so far), for the Light Path node; None: camera rays
     throughput: (m, 3) what the path carries so far, or None (1)
@@ -144,7 +146,12 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     shader = terminator_bent(ctx, surface, shader)
     recorder.shader(shader)
     clamping = np.any(np.isfinite(limit))
-    L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
+    # A vertex 0 reached by a phase ray adds no emission of its own: a path that scattered in media along a camera
+    # ray and reached a surface (volume.multiple_scattering's arrivals, which join the camera's hits) had its phase
+    # ray find that emission, weighed by MIS.
+    phase_found = (np.broadcast_to(np.asarray(light_path.flags), (m,)) & graph_.PATH["volume_scatter"]) != 0
+    own = (vertex == 0) & ~phase_found
+    L_out = np.where(own[:, None], shader.emission, 0.0)
     if clamping and vertex == 0:
         L_out = clamp_.clamped(L_out, throughput, limit)
     if groups is not None and vertex == 0:
