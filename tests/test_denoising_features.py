@@ -166,6 +166,39 @@ def test_a_fog_that_only_absorbs_leaves_the_features_as_they_are(kernels):
     np.testing.assert_allclose(aux["denoising_normal"], np.broadcast_to([0.0, 0.0, 1.0], (12, 16, 3)), atol=1e-6)
 
 
+def test_a_glowing_floor_in_fog_with_volume_bounces_gives_the_fogs_albedo_and_the_glow_by_the_odds_of_passing():
+    """An Emission floor (radiance 0.5, no closures: the path's feature vertex, albedo 0 of its own) 4 below an
+    orthographic camera in a grey world fog of albedo a = 0.9 (Scatter 0.27, Absorption 0.03: sigma_t 0.3), Volume
+    Bounces 2. Cycles writes the fog's a (1 - T) while the camera path looks (T = exp(-0.3 x 3.996) from the near
+    plane), then the floor's emission times what a path that passed carries (T / P = 1 here, P = T for a grey fog)
+    and nothing where the path scattered (it stopped looking: its phase ray's glow is no feature). So each sample
+    writes a (1 - T) or a (1 - T) + 0.5: each pixel of 16 samples is a (1 - T) + 0.5 k / 16 (k whole, 0..16), the
+    mean over the image a (1 - T) + 0.5 T within its noise (0.5 sqrt(T (1 - T) / 3072) per sample drawn), never
+    above a (1 - T) + 0.5 (an emission counted twice) nor missing the glow (the compiled kernel's before its fix:
+    a (1 - T), 0.629, everywhere). Both kernels to the same pixels."""
+    from core.lights import World
+    from core.materials import Material
+    scene = Scene(camera=ortho_down(height=4.0, scale=2.0))
+    scene.materials.append(Material(name="Glow", nodes=[("EMISSION", (1.0, 1.0, 1.0),
+                                                         {"emission": np.full(3, 0.5)})]))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.world = World(color=np.zeros(3), volume=[
+        ("SCATTER", 1.0, {"color": np.ones(3), "density": 0.27, "anisotropy": 0.0}),
+        ("ABSORPTION", 1.0, {"color": np.zeros(3), "density": 0.03})])
+    settings = RenderSettings(width=16, height=12, samples=16, integrator="path", max_bounces=4, volume_bounces=2,
+                              denoising_features=True)
+    reference, compiled = (render.render(scene, dataclasses.replace(settings, kernels=kernels))
+                           for kernels in ("numpy", "compiled"))
+    assert compiled.stats.kernels == "compiled"
+    a, b = reference.aux["denoising_albedo"], compiled.aux["denoising_albedo"]
+    np.testing.assert_allclose(b, a, rtol=1e-5, atol=1e-6)
+    T, fog, glow = math.exp(-0.3 * (4.0 - 4e-3)), 0.9, 0.5
+    k = (a - fog * (1.0 - T)) / glow * 16.0
+    np.testing.assert_allclose(k, np.round(k), atol=1e-3)
+    assert k.min() >= -1e-3 and k.max() <= 16.0 + 1e-3
+    assert abs(a.mean() - (fog * (1.0 - T) + glow * T)) < 4.0 * glow * math.sqrt(T * (1.0 - T) / a[..., 0].size / 16)
+
+
 def linear_slab(scene: Scene, axis: str, scale: float, offset: float, low, high) -> Scene:
     """Add to `scene` a volume-only box from `low` to `high` (3 each, world = object coordinates) holding a
     heterogeneous medium of density scale x (the point's object `axis`) + offset: a Volume Scatter of colour

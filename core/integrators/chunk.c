@@ -295,7 +295,8 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         if (chains) {
             /* The camera's hits: their paths go on with what a path passing to them carries (0 where it
              * scattered), and so does what they emit (path.py: the camera's hits' throughput is camera_through),
-             * clamped through it (block_hits clamped it through the media's transmittance instead: undone). */
+             * clamped through it (block_hits clamped it through the media's transmittance instead: undone), to
+             * Combined and to the Denoising Albedo (features.at_vertex: H->L is 0 by the time trace_paths reads it). */
             for (int64_t h = 0; h < H->m; h++) {
                 int64_t lane = H->lane[h];
                 double rescale = 1.0;
@@ -311,6 +312,8 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                                                                  * (H->groups[3 * h * ds.groups + i] * rescale);
                         H->groups[3 * h * ds.groups + i] = 0.0;
                     }
+                if (ds.features)                    /* (the emission their paths see while they look: features.c) */
+                    for (int c = 0; c < 3; c++) work->camera_features[lane][c] += through[lane][c] * H->L[3 * h + c];
                 for (int c = 0; c < 3; c++) {
                     H->lane_scattered[lane][c] += through[lane][c] * H->L[3 * h + c];
                     H->L[3 * h + c] = 0.0;
