@@ -584,6 +584,27 @@ def test_bumps_and_pixel_size_wires_under_panoramic_cameras_render_alike_in_both
     assert_same_render(compiled, reference)
 
 
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_a_bumped_floor_under_a_perspective_camera_renders_alike_in_both_kernels(integrator):
+    """A perspective camera ray's cone is measured in Cycles' camera frame (camera.world_to_camera: x right, y up, z
+    along the view), where the window's pixel steps dx, dy are taken at d = P / P.z: the compiled kernel's camera
+    cone (chunk.c camera_cone_of) is the Python reference's (rays.camera_cones), so a floor bumped by a sine of x
+    (Filter Width 1: steps of the footprint, widened along the ray and after each bounce) renders to the same
+    pixels, by direct light and path traced. (A frame with z behind the camera mirrors d and measures the spread
+    at the mirrored pixel: 7.6e-4 apart by direct light.)"""
+    scene = Scene(camera=Camera.look_at((0.5, -5.0, 3.0), (0.0, 0.0, 0.4), fov=math.radians(45)),
+                  world_color=np.array([0.05, 0.06, 0.07]))
+    scene.add_material((0.8, 0.7, 0.6))
+    scene.add_material((0.3, 0.5, 0.9))
+    scene.add_mesh(primitives.plane(8.0), materials=np.array([0]))
+    scene.add_mesh(primitives.uv_sphere(0.8, 12, 6, center=(0.0, 0.0, 0.8), smooth=True), materials=np.array([1]))
+    scene.lights = LIGHTS["sun"]
+    scene = with_cone_readers(scene, bump=True, wire="")
+    settings = RenderSettings(width=48, height=32, samples=2, light_samples=1, integrator=integrator)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference)
+
+
 def with_cone_readers(scene: Scene, bump: bool = True, wire: str = "pixel_size") -> Scene:
     """lit_scene `scene` with its floor's Diffuse bumped by a sine of x (Filter Width 1: steps of the ray's footprint,
     where `bump`) and its sphere an emitting Wireframe of Size 1.5 (wire "pixel_size": in pixels, which reads the

@@ -19,9 +19,14 @@ NOINLINE static void camera_cone_of(const ChunkParams *params, const CameraRecor
     }
     double P[3], f[7] = {c->left, c->right, c->bottom, c->top, c->kind == CAMERA_PERSP, (double)params->width,
                          (double)params->height};
-    for (int i = 0; i < 3; i++)                 /* (the rotation's transpose: world to camera) */
-        P[i] = (c->rotation[i] * (O[0] - c->eye[0]) + c->rotation[3 + i] * (O[1] - c->eye[1]))
-               + c->rotation[6 + i] * (O[2] - c->eye[2]);
+    /* (Cycles' worldtocamera, camera.world_to_camera: the transpose of the rotation with its axes' scale cleared,
+     * and z flipped so that it points along the view, as the window's d = P / P.z wants) */
+    for (int i = 0; i < 3; i++) {
+        const double axis[3] = {c->rotation[i], c->rotation[3 + i], c->rotation[6 + i]};
+        double length = sqrt(dot3(axis, axis));
+        P[i] = ((axis[0] * (O[0] - c->eye[0]) + axis[1] * (O[1] - c->eye[1])) + axis[2] * (O[2] - c->eye[2])) / length;
+    }
+    P[2] = -P[2];
     *cone = camera_cone(P, f, spread);
 }
 
