@@ -559,12 +559,14 @@ def test_each_objects_own_terminator_offsets_render_alike_in_both_kernels(instan
     assert_same_render(compiled, reference)
 
 
-@pytest.mark.parametrize("camera_type", ["EQUIRECTANGULAR", "FISHEYE_EQUISOLID", "MIRRORBALL"])
+@pytest.mark.parametrize("camera_type", ["EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID", "MIRRORBALL"])
 def test_bumps_and_pixel_size_wires_under_panoramic_cameras_render_alike_in_both_kernels(camera_type):
     """Under a panoramic camera each camera ray leaves with Cycles' panorama differentials (camera.panorama_cones:
-    its pinhole's directions one pixel apart): the floor's Bump steps by that footprint and a Pixel Size Wireframe
-    measures it, the Python reference (from the ray's direction) and the compiled kernel (from its raster point)
-    alike."""
+    its pinhole's directions one pixel apart): the floor's Bump steps by that footprint and the sphere's emitted
+    Pixel Size Wireframe measures it, the Python reference (from the ray's direction) and the compiled kernel (from
+    its raster point) alike, both where the camera sees the sphere and where the floor's BSDF rays find it (each
+    leaves with the footprint at its hit and the spread kept, as Cycles' ray differentials do: the direct
+    integrator's bounce carries the camera ray's cone, not none)."""
     from core.materials import Material
     from core.materials.graph import GraphNode, Link
     scene = lit_scene(LIGHTS["sun"])
@@ -578,7 +580,7 @@ def test_bumps_and_pixel_size_wires_under_panoramic_cameras_render_alike_in_both
     wire = Link(GraphNode("WIREFRAME", {"pixel_size": True}, {"Size": 1.5}), "Fac")
     scene.materials[0] = Material(name="Bumped", nodes=[("DIFFUSE", (0.8, 0.7, 0.6), {"color": np.array([0.8, 0.7, 0.6]),
                                                                                       "normal": normal})])
-    scene.materials[1] = Material(name="Wire", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"strength": wire})])
+    scene.materials[1] = Material(name="Wire", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": wire})])
     settings = RenderSettings(width=48, height=32, samples=2, light_samples=1, terminator_fix=True)
     compiled, reference = compare_paths(scene, settings)
     assert_same_render(compiled, reference)

@@ -64,11 +64,14 @@ class DirectLighting(Integrator):
         hit_groups = lightgroups.tally(ctx, len(hit))
         emitted, finds = (np.zeros((len(hit), 3)), np.zeros((len(hit), 3))) if feats is not None else (None, None)
         cone, spread = camera_cones(ctx, vectors.gather(O, hit), D_hit)     # (camera rays: a Bump's step)
-        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry,
-                                     path=graph_.light_paths(len(hit), cone=cone, spread=spread),
+        # The camera rays' paths, cones and all: the hits' shaders read them, and their BSDF and shadow rays carry
+        # them on (the footprint at the hit, the spread kept: rays.path_after), as Cycles' ray differentials do.
+        camera_paths = graph_.light_paths(len(hit), cone=cone, spread=spread)
+        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry, path=camera_paths,
                                      rays=shader_rays.for_hits(ctx, surface, pixel[hit], sample[hit]))
         L_hit, shadow_rays, _ = shade_vertex(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder,
-                                             PathState(limit=direct_cap), parts=parts, groups=hit_groups,
+                                             PathState(light_path=camera_paths, limit=direct_cap), parts=parts,
+                                             groups=hit_groups,
                                              shader=shader, emitted=emitted, found=finds)
         if feats is not None:
             one = np.ones((len(hit), 3))
