@@ -41,6 +41,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+from ..lights.base import walks
 from ..materials import graph as graph_
 from . import shadows
 
@@ -66,19 +67,6 @@ def refractive_kinds() -> np.ndarray:
     from ..materials.glass import Glass
     from ..materials.rough_glass import RoughGlass
     return np.array([Glass.kind, RoughGlass.kind, BeckmannGlass.kind])
-
-
-def walks(light) -> bool:
-    """Whether MNEE walks for light samples of `light`: a caustics light of a kind modelled here (point and spot lamps,
-    area lamps with a spread, suns)."""
-    if not getattr(light, "caustics", False):
-        return False
-    kind = getattr(light, "blender_type", "")
-    if kind in ("POINT", "SPOT"):
-        return True
-    if kind == "AREA":                    # (Spread 0, a fixed direction in Cycles, is left out)
-        return light.spread > 0.0 and light.area() > 0.0
-    return kind == "SUN"
 
 
 def active(ctx) -> bool:

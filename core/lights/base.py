@@ -152,7 +152,7 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("shadow_membership", U64, "the blocker shadow sets that cast its shadows; emitters: by object"),
     ("caustics", I32, "Shadow Caustics (core/integrators/mnee.c): bit 1, a caustics light (a caster's BSDF rays on a path\n"
                       "that left a receiver do not find it); bit 2, the compiled kernels walk for its light samples\n"
-                      "(mnee.walks)"),
+                      "(base.walks)"),
     ("has_ies", I32, "point, spot and area lamps: 1 when an IES Texture scales the light leaving it (core/lights/ies.py)"),
     ("has_falloff", I32, "point, spot and area lamps: 1 when a Light Falloff node scales the light by the distance t to the\n"
                          "lit point (Light.falloff): t^falloff_power, times t^2 / (falloff_smooth + t^2) where that is > 0"),
@@ -363,14 +363,26 @@ class Light:
         power, smooth = getattr(self, "falloff", (0, 0.0))
         if power != 0 or smooth > 0.0:
             record.has_falloff, record.falloff_power, record.falloff_smooth = 1, float(power), float(smooth)
-        from ..integrators import mnee
-        record.caustics = (1 if getattr(self, "caustics", False) else 0) | (2 if mnee.walks(self) else 0)
+        record.caustics = (1 if getattr(self, "caustics", False) else 0) | (2 if walks(self) else 0)
         self.pack_fields(record)
         return record
 
     def pack_fields(self, record: LightRecord) -> None:
         """Write the light's own constants into its C record."""
         raise NotImplementedError
+
+
+def walks(light) -> bool:
+    """Whether MNEE (core/integrators/mnee.py) walks for light samples of `light`: a caustics light of a kind it
+    models (point and spot lamps, area lamps with a spread, suns)."""
+    if not getattr(light, "caustics", False):
+        return False
+    kind = getattr(light, "blender_type", "")
+    if kind in ("POINT", "SPOT"):
+        return True
+    if kind == "AREA":                    # (Spread 0, a fixed direction in Cycles, is left out)
+        return light.spread > 0.0 and light.area() > 0.0
+    return kind == "SUN"
 
 
 def light_dimension(index: int) -> int:

@@ -1013,7 +1013,7 @@ radiance, bottom to top, where the others see `radiance` x color */
     uint64_t shadow_membership;             /* the blocker shadow sets that cast its shadows; emitters: by object */
     int32_t caustics;                       /* Shadow Caustics (core/integrators/mnee.c): bit 1, a caustics light (a caster's BSDF rays on a path
 that left a receiver do not find it); bit 2, the compiled kernels walk for its light samples
-(mnee.walks) */
+(base.walks) */
     int32_t has_ies;                        /* point, spot and area lamps: 1 when an IES Texture scales the light leaving it (core/lights/ies.py) */
     int32_t has_falloff;                    /* point, spot and area lamps: 1 when a Light Falloff node scales the light by the distance t to the
 lit point (Light.falloff): t^falloff_power, times t^2 / (falloff_smooth + t^2) where that is > 0 */
