@@ -1274,13 +1274,17 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
         if not os.path.isfile(path):
             raise FileNotFoundError(f"no file {path}")
     # Blender's own buffer, in bulk (OpenImageIO missing, or a generated image): rows bottom first.
+    return _buffer_alpha(_pixels(image), rule, bool(image.is_float))
+
+
+def _pixels(image) -> np.ndarray:
+    """Blender's buffer of an image as Image.pixels gives it, in bulk: (h, w, c) float32, bottom row first."""
     width, height = image.size
-    channels = image.channels
     if width * height == 0:
         raise ValueError("the image is empty")
-    flat = np.empty(width * height * channels, np.float32)
+    flat = np.empty(width * height * image.channels, np.float32)
     image.pixels.foreach_get(flat)
-    return _buffer_alpha(flat.reshape(height, width, channels), rule, bool(image.is_float))
+    return flat.reshape(height, width, image.channels)
 
 
 def _float_buffer(image, rule: str) -> np.ndarray:
@@ -1288,13 +1292,7 @@ def _float_buffer(image, rule: str) -> np.ndarray:
     its values as Blender made them (scene-linear, associated), alpha 1 for `rule` "ignore" (load_alpha_rule), and
     the colours times alpha once more for "associate always" (Cycles 5.1 on, Alpha Straight; textures.associated:
     float32 products)."""
-    width, height = image.size
-    channels = image.channels
-    if width * height == 0:
-        raise ValueError("the image is empty")
-    flat = np.empty(width * height * channels, np.float32)
-    image.pixels.foreach_get(flat)
-    pixels = flat.reshape(height, width, channels)
+    pixels = _pixels(image)
     if rule == "ignore":
         return textures_.alpha_ignored(pixels)
     if rule == "associate always":
@@ -1324,13 +1322,8 @@ def _byte_buffer(image, rule: str) -> np.ndarray:
     """Blender's byte buffer of a packed byte image as Cycles' BlenderImageLoader reads it (h, w, 4) uint8, bottom row
     first (Image.pixels gives bytes as k x (1 / 255)): straight, as Blender keeps bytes, associated in bytes where
     `rule` (load_alpha_rule) associates, alpha 255 for "ignore"."""
-    width, height = image.size
-    channels = image.channels
-    if width * height == 0:
-        raise ValueError("the image is empty")
-    flat = np.empty(width * height * channels, np.float32)
-    image.pixels.foreach_get(flat)
-    stored = bytes_of_unit_floats(flat).reshape(height, width, channels)
+    pixels = _pixels(image)
+    stored = bytes_of_unit_floats(pixels.reshape(-1)).reshape(pixels.shape)
     if rule == "ignore":
         return textures_.alpha_ignored(stored)
     if rule in ("associate", "associate always"):
