@@ -185,6 +185,22 @@ INLINE void mn_frame_rows(const double *a, const double *b, const double *s, con
     out[1][0] = dot3(a, t); out[1][1] = dot3(b, t);
 }
 
+/* A vertex's constraint (H in its frame s, t) moved by its neighbour v along v's dp_du, dp_dv: the direction w towards
+ * v changes by (dp - w (w . dp)) / distance (il: 1 / the distance), through mn_neg_across into H, as the 2x2 block
+ * [[dH_du.s, dH_dv.s], [dH_du.t, dH_dv.t]] (A for the previous vertex, Cn for the next). */
+INLINE void mn_neighbour_block(const MneeVertex *v, const double *w, double il, const double *H, const double *s,
+                               const double *t, double out[2][2])
+{
+    double ku = dot3(w, v->dp_du), kv = dot3(w, v->dp_dv), e_u[3], e_v[3], dH_du[3], dH_dv[3];
+    for (int k = 0; k < 3; k++) {
+        e_u[k] = (v->dp_du[k] - w[k] * ku) * il;
+        e_v[k] = (v->dp_dv[k] - w[k] * kv) * il;
+    }
+    mn_neg_across(e_u, H, dH_du);
+    mn_neg_across(e_v, H, dH_dv);
+    mn_frame_rows(dH_du, dH_dv, s, t, out);
+}
+
 /* mnee.constraints for one chain: C (c, 2) and the blocks A, B, Cn (c, 2, 2); returns 0 where two vertices lie within
  * MNEE_MIN_DISTANCE. I: the receiver point; target: the light point, or the direction to the light where `fixed`. */
 static int mnee_constraints(const MneeChain *ch, const double *I, const double *target, int fixed, double C[][2],
@@ -222,19 +238,10 @@ static int mnee_constraints(const MneeChain *ch, const double *I, const double *
         double inv_s = 1.0 / (ls > 1e-300 ? ls : 1e-300);
         cross3(x->n, s, t);
         double dH_du[3], dH_dv[3], e_u[3], e_v[3];
-        if (i > 0) {
-            const MneeVertex *pv = ch->x + i - 1;
-            double ku = dot3(wi, pv->dp_du), kv = dot3(wi, pv->dp_dv);
-            for (int k = 0; k < 3; k++) {
-                e_u[k] = (pv->dp_du[k] - wi[k] * ku) * ili;
-                e_v[k] = (pv->dp_dv[k] - wi[k] * kv) * ili;
-            }
-            mn_neg_across(e_u, H, dH_du);
-            mn_neg_across(e_v, H, dH_dv);
-            mn_frame_rows(dH_du, dH_dv, s, t, A[i]);
-        } else {
+        if (i > 0)
+            mn_neighbour_block(ch->x + i - 1, wi, ili, H, s, t, A[i]);
+        else
             memset(A[i], 0, sizeof(double[2][2]));
-        }
         int last_fixed = fixed && i == c - 1;
         double wiu = dot3(wi, x->dp_du), wiv = dot3(wi, x->dp_dv), wou = dot3(wo, x->dp_du), wov = dot3(wo, x->dp_dv);
         for (int k = 0; k < 3; k++) {
@@ -264,19 +271,10 @@ static int mnee_constraints(const MneeChain *ch, const double *I, const double *
         B[i][0][1] = dot3(dH_dv, s) + dot3(H, ds_dv);
         B[i][1][0] = dot3(dH_du, t) + dot3(H, dt_du);
         B[i][1][1] = dot3(dH_dv, t) + dot3(H, dt_dv);
-        if (i < c - 1) {
-            const MneeVertex *nv = ch->x + i + 1;
-            double ku = dot3(wo, nv->dp_du), kv = dot3(wo, nv->dp_dv);
-            for (int k = 0; k < 3; k++) {
-                e_u[k] = (nv->dp_du[k] - wo[k] * ku) * ilo;
-                e_v[k] = (nv->dp_dv[k] - wo[k] * kv) * ilo;
-            }
-            mn_neg_across(e_u, H, dH_du);
-            mn_neg_across(e_v, H, dH_dv);
-            mn_frame_rows(dH_du, dH_dv, s, t, Cn[i]);
-        } else {
+        if (i < c - 1)
+            mn_neighbour_block(ch->x + i + 1, wo, ilo, H, s, t, Cn[i]);
+        else
             memset(Cn[i], 0, sizeof(double[2][2]));
-        }
         C[i][0] = dot3(s, H) - ch->h[i][0];
         C[i][1] = dot3(t, H) - ch->h[i][1];
     }

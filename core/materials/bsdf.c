@@ -148,6 +148,17 @@ INLINE int lambert_alone(const ShaderResult *sd)
            && !bsdf_is(c->kind, BSDF_FLAG_SINGULAR | BSDF_FLAG_SUBSURFACE | BSDF_FLAG_OWN_WEIGHT);
 }
 
+/* A ClosureSample of closure slot `slot` that is no sample yet: no direction, weight or pdf (kind -1). */
+INLINE void no_closure_sample(int slot, ClosureSample *out)
+{
+    out->delta = 0;
+    out->kind = -1;
+    out->slot = slot;
+    out->pdf = 0.0;
+    out->weight[0] = out->weight[1] = out->weight[2] = 0.0;
+    out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
+}
+
 /* shader_sample for a lambert_alone hit, step by step as the loops there run for one closure (0.0 + x where they
  * start a sum at 0, closure_shadowing 1 on the closure's own normal): no loops, no table switch. */
 INLINE void lambert_shader_sample(const ShaderResult *sd, const double *wo, const double *u, double pick,
@@ -156,12 +167,7 @@ INLINE void lambert_shader_sample(const ShaderResult *sd, const double *wo, cons
     const Closure *c = sd->c;
     double total = 0.0 + c->sample_weight;
     int chosen = total <= pick * total ? 1 : 0;         /* (the running sum after the one closure is the total) */
-    out->delta = 0;
-    out->kind = -1;
-    out->slot = chosen;
-    out->pdf = 0.0;
-    out->weight[0] = out->weight[1] = out->weight[2] = 0.0;
-    out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
+    no_closure_sample(chosen, out);
     if (chosen >= 1) return;
     double u3[3] = {u[0], u[1], 0.5};                   /* (Lambert reads no third number) */
     BsdfSample s;
@@ -194,12 +200,7 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
         running += sd->c[k].sample_weight;
         if (running <= pick * total) chosen = k + 1;
     }
-    out->delta = 0;
-    out->kind = -1;
-    out->slot = chosen;
-    out->pdf = 0.0;
-    out->weight[0] = out->weight[1] = out->weight[2] = 0.0;
-    out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
+    no_closure_sample(chosen, out);
     if (sd->n == 0 || chosen >= sd->n) return;
     const Closure *c = sd->c + chosen;
     /* Where `pick` fell inside the chosen closure's share: a third number for a BSDF that chooses between
