@@ -93,15 +93,17 @@ def test_camera_rays_agree(camera):
     np.testing.assert_allclose(t, rays.t_max, rtol=1e-15, atol=0)
 
 
-def lit_scene(lights: list) -> Scene:
-    """A smooth low-poly sphere on a flat floor with a box beside it, seen from above, under `lights`."""
+def lit_scene(lights: list, box: bool = True) -> Scene:
+    """A smooth low-poly sphere on a flat floor with a box beside it (unless not `box`), seen from above, under
+    `lights`."""
     scene = Scene(camera=Camera.look_at((0.5, -5.0, 3.0), (0.0, 0.0, 0.4), fov=math.radians(45)),
                   world_color=np.array([0.05, 0.06, 0.07]))
     scene.add_material((0.8, 0.7, 0.6))
     scene.add_material((0.3, 0.5, 0.9))
     scene.add_mesh(primitives.plane(8.0), materials=np.array([0]))
     scene.add_mesh(primitives.uv_sphere(0.8, 12, 6, center=(0.0, 0.0, 0.8), smooth=True), materials=np.array([1]))
-    scene.add_mesh(primitives.box((0.6, 0.6, 1.2), center=(1.3, 0.6, 0.6)), materials=np.array([0]))
+    if box:
+        scene.add_mesh(primitives.box((0.6, 0.6, 1.2), center=(1.3, 0.6, 0.6)), materials=np.array([0]))
     scene.lights = lights
     return scene
 
@@ -594,14 +596,7 @@ def test_a_bumped_floor_under_a_perspective_camera_renders_alike_in_both_kernels
     (Filter Width 1: steps of the footprint, widened along the ray and after each bounce) renders to the same
     pixels, by direct light and path traced. (A frame with z behind the camera mirrors d and measures the spread
     at the mirrored pixel: 7.6e-4 apart by direct light.)"""
-    scene = Scene(camera=Camera.look_at((0.5, -5.0, 3.0), (0.0, 0.0, 0.4), fov=math.radians(45)),
-                  world_color=np.array([0.05, 0.06, 0.07]))
-    scene.add_material((0.8, 0.7, 0.6))
-    scene.add_material((0.3, 0.5, 0.9))
-    scene.add_mesh(primitives.plane(8.0), materials=np.array([0]))
-    scene.add_mesh(primitives.uv_sphere(0.8, 12, 6, center=(0.0, 0.0, 0.8), smooth=True), materials=np.array([1]))
-    scene.lights = LIGHTS["sun"]
-    scene = with_cone_readers(scene, bump=True, wire="")
+    scene = with_cone_readers(lit_scene(LIGHTS["sun"], box=False), bump=True, wire="")
     settings = RenderSettings(width=48, height=32, samples=2, light_samples=1, integrator=integrator)
     compiled, reference = compare_paths(scene, settings)
     assert_same_render(compiled, reference)

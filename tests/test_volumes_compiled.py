@@ -90,6 +90,15 @@ def assert_same_pixels(reference: np.ndarray, compiled: np.ndarray) -> None:
     np.testing.assert_allclose(compiled, reference, rtol=1e-6, atol=4e-7)
 
 
+def assert_same_light_groups(reference, compiled) -> None:
+    """The two light groups of both renders' aux passes, each lit and within assert_same_pixels' tolerance."""
+    groups = [name for name in reference.aux if name.startswith("lightgroup")]
+    assert len(groups) == 2
+    for name in groups:
+        assert reference.aux[name].max() > 0.01
+        np.testing.assert_allclose(compiled.aux[name], reference.aux[name], rtol=1e-6, atol=4e-7, err_msg=name)
+
+
 def assert_same_tracked_pixels(reference: np.ndarray, compiled: np.ndarray, rtol: float = 1e-4) -> None:
     """A heterogeneous medium's render (ratio tracking, its walks' numbers keyed by each ray on a 2^-20 grid,
     core/volumes/tracking.py ray_keys): nine in ten values within a few float32 ulps as assert_same_pixels, and the
@@ -367,11 +376,7 @@ def test_both_kernels_write_the_light_groups_of_a_world_fog_around_the_camera_al
     compiled = render(scene, RenderSettings(**settings))
     assert compiled.stats.kernels == "compiled"
     assert_same_pixels(reference.image, compiled.image)
-    groups = [name for name in reference.aux if name.startswith("lightgroup")]
-    assert len(groups) == 2
-    for name in groups:
-        assert reference.aux[name].max() > 0.01
-        np.testing.assert_allclose(compiled.aux[name], reference.aux[name], rtol=1e-6, atol=4e-7, err_msg=name)
+    assert_same_light_groups(reference, compiled)
 
 
 def bumped_floor_material() -> Material:
@@ -457,10 +462,6 @@ def test_both_kernels_see_a_glowing_floor_in_a_world_fog_with_volume_bounces_to_
     assert compiled.stats.kernels == "compiled"
     assert compiled.stats.shadow_rays == reference.stats.shadow_rays
     assert_same_pixels(reference.image, compiled.image)
-    groups = [name for name in reference.aux if name.startswith("lightgroup")]
-    assert len(groups) == 2
-    for name in groups:
-        assert reference.aux[name].max() > 0.01
-        np.testing.assert_allclose(compiled.aux[name], reference.aux[name], rtol=1e-6, atol=4e-7, err_msg=name)
+    assert_same_light_groups(reference, compiled)
     np.testing.assert_allclose(compiled.aux["denoising_albedo"], reference.aux["denoising_albedo"], rtol=1e-5,
                                atol=1e-6)
